@@ -1,0 +1,299 @@
+#pragma once
+// A triangle surface mesh with typed index handles and per-element properties.
+//
+// Connectivity: every face stores its three vertices (counter-clockwise seen from
+// outside) and its three edges (edge i joins vertex i and i+1); every edge stores
+// its two end vertices and the one or two faces that use it; every vertex stores its
+// incident edges. An undirected vertex pair is at most one edge. All edits are local
+// (cost proportional to the valence of the touched vertices); deleted elements are
+// only flagged until garbageCollection() compacts the arrays.
+//
+// Edits state their preconditions; an edit that cannot be done returns an invalid
+// handle and leaves the mesh untouched. Misuse (a dead or foreign handle) throws
+// InvalidHandleError.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/mesh/handles.h"
+#include "sim/mesh/mesh_error.h"
+#include "sim/mesh/properties.h"
+
+namespace ld::mesh {
+
+using Point = Eigen::Vector3d;
+using Normal = Eigen::Vector3d;
+
+template <class T>
+using VertexProperty = Property<Vertex, T>;
+template <class T>
+using EdgeProperty = Property<Edge, T>;
+template <class T>
+using FaceProperty = Property<Face, T>;
+
+struct ValidationReport {
+  std::vector<std::string> problems;
+  [[nodiscard]] bool ok() const { return problems.empty(); }
+  [[nodiscard]] std::string message() const;  // problems joined by newlines
+};
+
+// Old index -> new handle (invalid where the element was removed).
+struct Compaction {
+  std::vector<Vertex> vertexMap;
+  std::vector<Edge> edgeMap;
+  std::vector<Face> faceMap;
+};
+
+struct Components {
+  int count = 0;
+  std::vector<int> faceLabel;    // per face index; -1 for deleted faces
+  std::vector<int> vertexLabel;  // per vertex index; -1 for deleted or isolated vertices
+};
+
+struct BoundingBox {
+  Point min = Point::Constant(0.0);
+  Point max = Point::Constant(0.0);
+  [[nodiscard]] Point center() const { return 0.5 * (min + max); }
+  [[nodiscard]] Point extent() const { return max - min; }
+};
+
+// Iterates over the live elements of one kind.
+template <class H>
+class HandleRange {
+ public:
+  class Iterator {
+   public:
+    using value_type = H;
+    using difference_type = std::ptrdiff_t;
+    Iterator() = default;
+    Iterator(typename H::Index i, const std::vector<bool>* deleted) : i_(i), deleted_(deleted) { skip(); }
+    H operator*() const { return H(i_); }
+    Iterator& operator++() {
+      ++i_;
+      skip();
+      return *this;
+    }
+    Iterator operator++(int) {
+      Iterator t = *this;
+      ++*this;
+      return t;
+    }
+    bool operator==(const Iterator& o) const { return i_ == o.i_; }
+
+   private:
+    void skip() {
+      while (deleted_ && i_ < deleted_->size() && (*deleted_)[i_]) ++i_;
+    }
+    typename H::Index i_ = 0;
+    const std::vector<bool>* deleted_ = nullptr;
+  };
+  explicit HandleRange(const std::vector<bool>* deleted) : deleted_(deleted) {}
+  [[nodiscard]] Iterator begin() const { return Iterator(0, deleted_); }
+  [[nodiscard]] Iterator end() const { return Iterator(static_cast<typename H::Index>(deleted_->size()), deleted_); }
+
+ private:
+  const std::vector<bool>* deleted_;
+};
+
+class SurfaceMesh {
+ public:
+  SurfaceMesh();
+  SurfaceMesh(const SurfaceMesh& other);
+  SurfaceMesh& operator=(const SurfaceMesh& other);
+  SurfaceMesh(SurfaceMesh&& other) noexcept;
+  SurfaceMesh& operator=(SurfaceMesh&& other) noexcept;
+  ~SurfaceMesh() = default;
+
+  // ---- sizes -------------------------------------------------------------
+  // *Size(): array lengths including deleted elements (valid index range).
+  [[nodiscard]] std::size_t verticesSize() const { return vprops_.size(); }
+  [[nodiscard]] std::size_t edgesSize() const { return eprops_.size(); }
+  [[nodiscard]] std::size_t facesSize() const { return fprops_.size(); }
+  [[nodiscard]] std::size_t nVertices() const { return verticesSize() - deletedVertices_; }
+  [[nodiscard]] std::size_t nEdges() const { return edgesSize() - deletedEdges_; }
+  [[nodiscard]] std::size_t nFaces() const { return facesSize() - deletedFaces_; }
+  [[nodiscard]] bool isEmpty() const { return nVertices() == 0; }
+  [[nodiscard]] bool hasGarbage() const { return deletedVertices_ + deletedEdges_ + deletedFaces_ > 0; }
+  void clear();
+  // Incremented by every edit that changes connectivity; caches (spring arrays,
+  // BVHs) compare it to know when to rebuild.
+  [[nodiscard]] std::uint64_t topologyVersion() const { return topologyVersion_; }
+  void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
+
+  [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v]; }
+  [[nodiscard]] bool isDeleted(Edge e) const { return edeleted_[e]; }
+  [[nodiscard]] bool isDeleted(Face f) const { return fdeleted_[f]; }
+  // In range and not deleted.
+  [[nodiscard]] bool isValid(Vertex v) const { return v.isValid() && v.idx() < verticesSize() && !vdeleted_[v]; }
+  [[nodiscard]] bool isValid(Edge e) const { return e.isValid() && e.idx() < edgesSize() && !edeleted_[e]; }
+  [[nodiscard]] bool isValid(Face f) const { return f.isValid() && f.idx() < facesSize() && !fdeleted_[f]; }
+
+  [[nodiscard]] HandleRange<Vertex> vertices() const { return HandleRange<Vertex>(&vdeleted_.vector()); }
+  [[nodiscard]] HandleRange<Edge> edges() const { return HandleRange<Edge>(&edeleted_.vector()); }
+  [[nodiscard]] HandleRange<Face> faces() const { return HandleRange<Face>(&fdeleted_.vector()); }
+
+  // ---- construction and edits ---------------------------------------------
+  Vertex addVertex(const Point& p);
+
+  // Adds triangle (a, b, c), counter-clockwise.
+  // Pre: a, b, c live and distinct. Returns an invalid face (mesh unchanged) when an
+  // edge of the triangle already has two faces, or already has one face that runs
+  // it in the same direction (inconsistent orientation).
+  Face addFace(Vertex a, Vertex b, Vertex c);
+
+  // Pre: f live. Post: f deleted; edges left without a face are deleted; vertices
+  // stay (they may become isolated).
+  void deleteFace(Face f);
+
+  // Pre: v live. Post: v and every face and edge around it deleted.
+  void deleteVertex(Vertex v);
+
+  // Inserts a vertex at p on edge e and splits each of its one or two faces in two.
+  // Pre: e live. Post: e is replaced by two edges (a,m), (m,b) that inherit e's
+  // properties; each split face keeps its handle for the half next to e's first
+  // vertex and a new face inherits its properties. Returns m.
+  Vertex splitEdge(Edge e, const Point& p);
+
+  // Inserts a vertex at p inside f and splits f into three (f keeps one part, two new
+  // faces inherit its properties). Pre: f live. Returns the new vertex.
+  Vertex splitFace(Face f, const Point& p);
+
+  // Moves the faces in `fan` from v onto a new vertex at v's position with v's
+  // properties. Edges shared by a fan face and a non-fan face are duplicated.
+  // Pre: v live; fan non-empty, faces live, distinct and incident to v, and not all
+  // faces around v. Returns the new vertex, or invalid (mesh unchanged) otherwise.
+  Vertex splitVertex(Vertex v, std::span<const Face> fan);
+
+  // Disconnects the two faces of interior edge e from each other, duplicating one end
+  // vertex whose face fan opens up once e is cut (a boundary vertex, or one on an
+  // earlier cut). Pre: e live with two faces. Returns the new edge (the copy that the
+  // second face now uses), or invalid (mesh unchanged) when neither end vertex can
+  // be split without a slit closed at both ends.
+  Edge separateEdge(Edge e);
+
+  // Removes deleted elements, renumbering the rest in order. Handles held outside
+  // the mesh must be remapped with the returned maps.
+  Compaction garbageCollection();
+
+  // ---- connectivity queries -----------------------------------------------
+  [[nodiscard]] const std::array<Vertex, 3>& vertices(Face f) const { return fverts_[f]; }
+  [[nodiscard]] const std::array<Edge, 3>& edges(Face f) const { return fedges_[f]; }
+  [[nodiscard]] Vertex vertex(Edge e, int i) const { return everts_[e][static_cast<std::size_t>(i)]; }
+  // i = 0 is always a live face; i = 1 is invalid for a boundary edge.
+  [[nodiscard]] Face face(Edge e, int i) const { return efaces_[e][static_cast<std::size_t>(i)]; }
+  [[nodiscard]] const std::vector<Edge>& edges(Vertex v) const { return vedges_[v]; }
+  [[nodiscard]] std::vector<Face> faces(Vertex v) const;  // incident faces, each once
+  [[nodiscard]] std::size_t valence(Vertex v) const { return vedges_[v].size(); }
+  [[nodiscard]] bool isIsolated(Vertex v) const { return vedges_[v].empty(); }
+  [[nodiscard]] bool isBoundary(Edge e) const { return !efaces_[e][1].isValid(); }
+  [[nodiscard]] bool isBoundary(Vertex v) const;
+  [[nodiscard]] Edge findEdge(Vertex a, Vertex b) const;
+  [[nodiscard]] Vertex otherVertex(Edge e, Vertex v) const;
+  [[nodiscard]] Face otherFace(Edge e, Face f) const;  // across e; invalid on the boundary
+  [[nodiscard]] Vertex oppositeVertex(Face f, Edge e) const;
+  [[nodiscard]] Edge oppositeEdge(Face f, Vertex v) const;
+  [[nodiscard]] int localIndex(Face f, Vertex v) const;  // 0..2, or -1
+  [[nodiscard]] int localIndex(Face f, Edge e) const;    // 0..2, or -1
+  [[nodiscard]] bool isClosed() const;                   // no boundary edge and not empty
+
+  // ---- geometry --------------------------------------------------------------
+  [[nodiscard]] Point& position(Vertex v) { return points_[v]; }
+  [[nodiscard]] const Point& position(Vertex v) const { return points_[v]; }
+  // Indexed by vertex index, deleted slots included.
+  [[nodiscard]] std::vector<Point>& positions() { return points_.vector(); }
+  [[nodiscard]] const std::vector<Point>& positions() const { return points_.vector(); }
+  [[nodiscard]] Normal faceNormal(Face f) const;  // unit, or zero for a degenerate face
+  [[nodiscard]] double faceArea(Face f) const;
+  [[nodiscard]] Point centroid(Face f) const;
+  [[nodiscard]] double edgeLength(Edge e) const;
+  // Area-weighted unit vertex normals, indexed by vertex index.
+  [[nodiscard]] std::vector<Normal> vertexNormals() const;
+  [[nodiscard]] double area() const;
+  [[nodiscard]] BoundingBox bounds() const;
+
+  // ---- global structure ----------------------------------------------------
+  [[nodiscard]] Components connectedComponents() const;
+  // Each loop lists its vertices in order, walking boundary edges opposite to the
+  // direction of their face (so the loop runs around the hole counter-clockwise).
+  [[nodiscard]] std::vector<std::vector<Vertex>> boundaryLoops() const;
+  [[nodiscard]] ValidationReport validate() const;
+
+  // ---- properties --------------------------------------------------------------
+  template <class T>
+  VertexProperty<T> addVertexProperty(const std::string& name, T def = T()) {
+    return VertexProperty<T>(vprops_.add<T>(name, std::move(def)));
+  }
+  template <class T>
+  VertexProperty<T> getVertexProperty(const std::string& name) const {
+    return VertexProperty<T>(vprops_.get<T>(name));
+  }
+  template <class T>
+  VertexProperty<T> vertexProperty(const std::string& name, T def = T()) {
+    auto p = getVertexProperty<T>(name);
+    return p ? p : addVertexProperty<T>(name, std::move(def));
+  }
+  template <class T>
+  EdgeProperty<T> addEdgeProperty(const std::string& name, T def = T()) {
+    return EdgeProperty<T>(eprops_.add<T>(name, std::move(def)));
+  }
+  template <class T>
+  EdgeProperty<T> getEdgeProperty(const std::string& name) const {
+    return EdgeProperty<T>(eprops_.get<T>(name));
+  }
+  template <class T>
+  EdgeProperty<T> edgeProperty(const std::string& name, T def = T()) {
+    auto p = getEdgeProperty<T>(name);
+    return p ? p : addEdgeProperty<T>(name, std::move(def));
+  }
+  template <class T>
+  FaceProperty<T> addFaceProperty(const std::string& name, T def = T()) {
+    return FaceProperty<T>(fprops_.add<T>(name, std::move(def)));
+  }
+  template <class T>
+  FaceProperty<T> getFaceProperty(const std::string& name) const {
+    return FaceProperty<T>(fprops_.get<T>(name));
+  }
+  template <class T>
+  FaceProperty<T> faceProperty(const std::string& name, T def = T()) {
+    auto p = getFaceProperty<T>(name);
+    return p ? p : addFaceProperty<T>(name, std::move(def));
+  }
+  void removeVertexProperty(const std::string& name);
+  void removeEdgeProperty(const std::string& name);
+  void removeFaceProperty(const std::string& name);
+
+ private:
+  void bindProperties();
+  void check(Vertex v, const char* where) const;
+  void check(Edge e, const char* where) const;
+  void check(Face f, const char* where) const;
+  Edge newEdge(Vertex a, Vertex b);
+  Face newFace();
+  // Low-level helpers: remove a face from its edges' face lists (edges may be left
+  // empty) and give it new vertices, finding or creating its edges.
+  void detachFace(Face f);
+  void attachFace(Face f, Vertex a, Vertex b, Vertex c);
+  void deleteEmptyEdge(Edge e);
+  void removeEdgeFromVertex(Vertex v, Edge e);
+  [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
+
+  PropertyContainer vprops_, eprops_, fprops_;
+  VertexProperty<Point> points_;
+  VertexProperty<std::vector<Edge>> vedges_;
+  VertexProperty<bool> vdeleted_;
+  EdgeProperty<std::array<Vertex, 2>> everts_;
+  EdgeProperty<std::array<Face, 2>> efaces_;
+  EdgeProperty<bool> edeleted_;
+  FaceProperty<std::array<Vertex, 3>> fverts_;
+  FaceProperty<std::array<Edge, 3>> fedges_;
+  FaceProperty<bool> fdeleted_;
+  std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
+  std::uint64_t topologyVersion_ = 0;
+};
+
+}  // namespace ld::mesh
