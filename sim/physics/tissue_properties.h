@@ -1,0 +1,93 @@
+#pragma once
+// The tissue's physical data, stored as properties of the surface mesh so that the
+// cutter, the renderer and the integrators share one source of truth:
+//   vertex "v:home"     Eigen::Vector3d  home (undeformed) position  [mm]
+//   vertex "v:mass"     double           lumped mass                 [kg]
+//   vertex "v:velocity" Eigen::Vector3d  velocity                    [mm/s]
+//   vertex "v:force"    Eigen::Vector3d  external force, added every step [mN]
+//   edge   "e:rest"     double           rest length of the mesh spring [mm]
+//   edge   "e:k"        double           stiffness of the mesh spring   [mN/mm]
+// Mesh positions (mesh.positions()) are the current positions.
+//
+// Units: millimetres, kilograms, seconds; forces in mN (kg·mm/s²).
+//
+// After a topology edit the cutter calls the init* hooks for every new vertex and
+// every new or changed edge. Rules (thesis ch. 3-4, with the differences noted):
+//  - New vertex on an edge or in a face: home and velocity are interpolated from the
+//    parent vertices (the thesis sets the home to the vertex's position at creation;
+//    choose NewVertexHome::Current for that). Interpolating keeps a cut through a
+//    deformed, tensioned tissue from shifting its rest shape.
+//  - Duplicated vertex (splitVertex / separateEdge): same home and velocity.
+//  - New or changed edge: rest = restRatio × |home_a − home_b|, k = K / rest, exactly
+//    as an edge at load (the thesis pre-stretches every mesh spring the same way);
+//    half-edges of a split edge thus keep their share of the parent's tension.
+//  - Masses: lumped, one third of each incident triangle's area measured at the home
+//    positions, times the areal density (or uniform). Every hook recomputes the
+//    masses of the touched vertex and its one-ring, so the total mass of the tissue
+//    is conserved by splits (the areas of the pieces add up to the parent's area).
+#include <span>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "sim/mesh/surface_mesh.h"
+
+namespace ld::physics {
+
+inline constexpr const char* kHomeProp = "v:home";
+inline constexpr const char* kMassProp = "v:mass";
+inline constexpr const char* kVelocityProp = "v:velocity";
+inline constexpr const char* kForceProp = "v:force";
+inline constexpr const char* kRestProp = "e:rest";
+inline constexpr const char* kStiffnessProp = "e:k";
+
+enum class NewVertexHome {
+  Interpolated,  // from the parents' homes (default)
+  Current,       // the vertex's position when it is created (the thesis)
+};
+
+struct TissueParams {
+  double restRatio = 0.7;                             // rest length = ratio × initial length (pre-stretch)
+  double K = 40.0;                                    // mesh spring constant [mN]; k = K / rest  [mN/mm]
+  double homeK = 4.0;                                 // home spring stiffness per vertex        [mN/mm]
+  double damping = 15.0;                              // velocity damping rate [1/s]: f = −damping·m·v
+  double density = 5e-6;                              // areal density [kg/mm²] (≈ 1000 kg/m³ × 5 mm)
+  bool uniformMass = false;                           // every vertex gets vertexMass
+  double vertexMass = 1e-4;                           // [kg], used when uniformMass
+  double minMass = 1e-9;                              // floor for vertices with (near) zero area
+  double minRest = 1e-3;                              // floor for rest lengths [mm] (bounds k = K / rest)
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // [mm/s²]; off by default
+  NewVertexHome newVertexHome = NewVertexHome::Interpolated;
+};
+
+// True when all six properties exist on the mesh.
+[[nodiscard]] bool hasTissueProperties(const mesh::SurfaceMesh& m);
+
+// Adds (or overwrites) the properties: home = current position, zero velocity and
+// external force, rest = ratio × current length, k = K / rest, lumped masses.
+void attachTissueProperties(mesh::SurfaceMesh& m, const TissueParams& p);
+
+// v was inserted on the segment a→b at parameter t (0 at a, 1 at b).
+void initVertexOnEdge(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Vertex a, mesh::Vertex b, double t,
+                      const TissueParams& p);
+// v was inserted inside the triangle (a, b, c) at barycentric coordinates bary.
+void initVertexInFace(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Vertex a, mesh::Vertex b, mesh::Vertex c,
+                      const Eigen::Vector3d& bary, const TissueParams& p);
+// Same, naming the face (its three vertices as they are when called).
+void initVertexInFace(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Face f, const Eigen::Vector3d& bary,
+                      const TissueParams& p);
+// v is a copy of original (splitVertex, separateEdge): same home and velocity.
+void initVertexCopy(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Vertex original, const TissueParams& p);
+// e is new or its end vertices changed: rest from the homes × ratio, k = K / rest.
+void initEdge(mesh::SurfaceMesh& m, mesh::Edge e, const TissueParams& p);
+
+// Recomputes the lumped masses of the given vertices from their incident faces'
+// areas at the home positions (or sets the uniform mass).
+void redistributeMass(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertices, const TissueParams& p);
+// The same for every live vertex.
+void recomputeMasses(mesh::SurfaceMesh& m, const TissueParams& p);
+
+// Lumped mass of one vertex from its faces' home areas (what redistributeMass sets).
+[[nodiscard]] double lumpedMass(const mesh::SurfaceMesh& m, mesh::Vertex v, const TissueParams& p);
+
+}  // namespace ld::physics
