@@ -35,9 +35,12 @@ std::string_view toString(Hand h) { return h == Hand::Left ? "left" : "right"; }
 
 std::string_view toString(Tool t) {
   switch (t) {
-    case Tool::Scalpel: return "scalpel";
-    case Tool::Hook: return "hook";
-    case Tool::Grasper: return "grasper";
+    case Tool::Scalpel:
+      return "scalpel";
+    case Tool::Hook:
+      return "hook";
+    case Tool::Grasper:
+      return "grasper";
   }
   return "?";
 }

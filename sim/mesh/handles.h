@@ -35,9 +35,15 @@ using Vertex = Handle<VertexTag>;
 using Edge = Handle<EdgeTag>;
 using Face = Handle<FaceTag>;
 
-inline std::ostream& operator<<(std::ostream& os, Vertex v) { return os << 'v' << static_cast<long long>(v.isValid() ? v.idx() : -1); }
-inline std::ostream& operator<<(std::ostream& os, Edge e) { return os << 'e' << static_cast<long long>(e.isValid() ? e.idx() : -1); }
-inline std::ostream& operator<<(std::ostream& os, Face f) { return os << 'f' << static_cast<long long>(f.isValid() ? f.idx() : -1); }
+inline std::ostream& operator<<(std::ostream& os, Vertex v) {
+  return os << 'v' << static_cast<long long>(v.isValid() ? v.idx() : -1);
+}
+inline std::ostream& operator<<(std::ostream& os, Edge e) {
+  return os << 'e' << static_cast<long long>(e.isValid() ? e.idx() : -1);
+}
+inline std::ostream& operator<<(std::ostream& os, Face f) {
+  return os << 'f' << static_cast<long long>(f.isValid() ? f.idx() : -1);
+}
 
 }  // namespace ld::mesh
 

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "sim/mesh/handles.h"
 #include "sim/mesh/mesh_error.h"
@@ -169,9 +170,10 @@ class SurfaceMesh {
   // faces around v. Returns the new vertex, or invalid (mesh unchanged) otherwise.
   Vertex splitVertex(Vertex v, std::span<const Face> fan);
 
-  // Disconnects the two faces of interior edge e from each other, duplicating one end
+  // Disconnects the two faces of interior edge e from each other, duplicating an end
   // vertex whose face fan opens up once e is cut (a boundary vertex, or one on an
-  // earlier cut). Pre: e live with two faces. Returns the new edge (the copy that the
+  // earlier cut), and the other end too if the two sides would otherwise meet only
+  // there. Pre: e live with two faces. Returns the new edge (the copy that the
   // second face now uses), or invalid (mesh unchanged) when neither end vertex can
   // be split without a slit closed at both ends.
   Edge separateEdge(Edge e);
@@ -268,6 +270,7 @@ class SurfaceMesh {
   void removeFaceProperty(const std::string& name);
 
  private:
+  void initBuiltins();
   void bindProperties();
   void check(Vertex v, const char* where) const;
   void check(Edge e, const char* where) const;
@@ -280,7 +283,11 @@ class SurfaceMesh {
   void attachFace(Face f, Vertex a, Vertex b, Vertex c);
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
-  [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
+  [[nodiscard]] bool runsForward(Face f, Edge e) const;
+  // Per face of `around` (the faces of v): a label shared by faces connected through
+  // edges at v other than `ignore`.
+  [[nodiscard]] std::vector<int> fanGroups(Vertex v, const std::vector<Face>& around,
+                                           Edge ignore) const;  // f traverses e from vertex 0 to 1
 
   PropertyContainer vprops_, eprops_, fprops_;
   VertexProperty<Point> points_;

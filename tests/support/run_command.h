@@ -1,13 +1,13 @@
 #pragma once
 // Runs a command line through /bin/sh and captures stdout, stderr and the exit code.
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace ld::test {
 
@@ -29,8 +29,8 @@ inline CommandResult runCommand(const std::string& cmd, const std::string& stdin
   const std::string tag = std::to_string(::getpid()) + "_" + std::to_string(std::rand());
   const auto in = dir / ("ld_in_" + tag), out = dir / ("ld_out_" + tag), err = dir / ("ld_err_" + tag);
   { std::ofstream(in) << stdinText; }
-  const std::string full = cmd + " <" + shellQuote(in.string()) + " >" + shellQuote(out.string()) + " 2>" +
-                           shellQuote(err.string());
+  const std::string full =
+      cmd + " <" + shellQuote(in.string()) + " >" + shellQuote(out.string()) + " 2>" + shellQuote(err.string());
   const int status = std::system(full.c_str());
   CommandResult r;
   r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

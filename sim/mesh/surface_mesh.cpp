@@ -1,0 +1,735 @@
+#include "sim/mesh/surface_mesh.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+#include <unordered_set>
+
+namespace ld::mesh {
+
+std::string ValidationReport::message() const {
+  std::string s;
+  for (const auto& p : problems) s += p + "\n";
+  return s;
+}
+
+// ---- construction -----------------------------------------------------------
+
+SurfaceMesh::SurfaceMesh() { initBuiltins(); }
+
+void SurfaceMesh::initBuiltins() {
+  vprops_ = PropertyContainer();
+  eprops_ = PropertyContainer();
+  fprops_ = PropertyContainer();
+  vprops_.add<Point>("v:point", Point::Zero());
+  vprops_.add<std::vector<Edge>>("v:edges", {});
+  vprops_.add<bool>("v:deleted", false);
+  eprops_.add<std::array<Vertex, 2>>("e:vertices", {});
+  eprops_.add<std::array<Face, 2>>("e:faces", {});
+  eprops_.add<bool>("e:deleted", false);
+  fprops_.add<std::array<Vertex, 3>>("f:vertices", {});
+  fprops_.add<std::array<Edge, 3>>("f:edges", {});
+  fprops_.add<bool>("f:deleted", false);
+  deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
+  bindProperties();
+}
+
+void SurfaceMesh::bindProperties() {
+  points_ = getVertexProperty<Point>("v:point");
+  vedges_ = getVertexProperty<std::vector<Edge>>("v:edges");
+  vdeleted_ = getVertexProperty<bool>("v:deleted");
+  everts_ = getEdgeProperty<std::array<Vertex, 2>>("e:vertices");
+  efaces_ = getEdgeProperty<std::array<Face, 2>>("e:faces");
+  edeleted_ = getEdgeProperty<bool>("e:deleted");
+  fverts_ = getFaceProperty<std::array<Vertex, 3>>("f:vertices");
+  fedges_ = getFaceProperty<std::array<Edge, 3>>("f:edges");
+  fdeleted_ = getFaceProperty<bool>("f:deleted");
+}
+
+SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
+    : vprops_(o.vprops_),
+      eprops_(o.eprops_),
+      fprops_(o.fprops_),
+      deletedVertices_(o.deletedVertices_),
+      deletedEdges_(o.deletedEdges_),
+      deletedFaces_(o.deletedFaces_),
+      topologyVersion_(o.topologyVersion_) {
+  bindProperties();
+}
+
+SurfaceMesh& SurfaceMesh::operator=(const SurfaceMesh& o) {
+  if (this != &o) {
+    SurfaceMesh tmp(o);
+    *this = std::move(tmp);
+  }
+  return *this;
+}
+
+// Property views point into heap-allocated arrays, which move with the containers.
+SurfaceMesh::SurfaceMesh(SurfaceMesh&& o) noexcept
+    : vprops_(std::move(o.vprops_)),
+      eprops_(std::move(o.eprops_)),
+      fprops_(std::move(o.fprops_)),
+      deletedVertices_(o.deletedVertices_),
+      deletedEdges_(o.deletedEdges_),
+      deletedFaces_(o.deletedFaces_),
+      topologyVersion_(o.topologyVersion_) {
+  bindProperties();
+  o.initBuiltins();
+}
+
+SurfaceMesh& SurfaceMesh::operator=(SurfaceMesh&& o) noexcept {
+  if (this != &o) {
+    vprops_ = std::move(o.vprops_);
+    eprops_ = std::move(o.eprops_);
+    fprops_ = std::move(o.fprops_);
+    deletedVertices_ = o.deletedVertices_;
+    deletedEdges_ = o.deletedEdges_;
+    deletedFaces_ = o.deletedFaces_;
+    topologyVersion_ = o.topologyVersion_ + 1;
+    bindProperties();
+    o.initBuiltins();
+  }
+  return *this;
+}
+
+void SurfaceMesh::clear() {
+  initBuiltins();
+  ++topologyVersion_;
+}
+
+void SurfaceMesh::reserve(std::size_t nv, std::size_t ne, std::size_t nf) {
+  points_.vector().reserve(nv);
+  vedges_.vector().reserve(nv);
+  everts_.vector().reserve(ne);
+  efaces_.vector().reserve(ne);
+  fverts_.vector().reserve(nf);
+  fedges_.vector().reserve(nf);
+}
+
+void SurfaceMesh::removeVertexProperty(const std::string& name) {
+  if (name.rfind("v:point", 0) == 0 || name == "v:edges" || name == "v:deleted")
+    throw PropertyError("cannot remove built-in property '" + name + "'");
+  vprops_.remove(name);
+}
+void SurfaceMesh::removeEdgeProperty(const std::string& name) {
+  if (name == "e:vertices" || name == "e:faces" || name == "e:deleted")
+    throw PropertyError("cannot remove built-in property '" + name + "'");
+  eprops_.remove(name);
+}
+void SurfaceMesh::removeFaceProperty(const std::string& name) {
+  if (name == "f:vertices" || name == "f:edges" || name == "f:deleted")
+    throw PropertyError("cannot remove built-in property '" + name + "'");
+  fprops_.remove(name);
+}
+
+void SurfaceMesh::check(Vertex v, const char* where) const {
+  if (!isValid(v)) {
+    std::ostringstream s;
+    s << where << ": " << v << " is not a live vertex";
+    throw InvalidHandleError(s.str());
+  }
+}
+void SurfaceMesh::check(Edge e, const char* where) const {
+  if (!isValid(e)) {
+    std::ostringstream s;
+    s << where << ": " << e << " is not a live edge";
+    throw InvalidHandleError(s.str());
+  }
+}
+void SurfaceMesh::check(Face f, const char* where) const {
+  if (!isValid(f)) {
+    std::ostringstream s;
+    s << where << ": " << f << " is not a live face";
+    throw InvalidHandleError(s.str());
+  }
+}
+
+// ---- low-level element creation --------------------------------------------
+
+Vertex SurfaceMesh::addVertex(const Point& p) {
+  vprops_.pushBack();
+  Vertex v(verticesSize() - 1);
+  points_[v] = p;
+  return v;
+}
+
+Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
+  eprops_.pushBack();
+  Edge e(edgesSize() - 1);
+  everts_[e] = {a, b};
+  efaces_[e] = {Face(), Face()};
+  vedges_[a].push_back(e);
+  vedges_[b].push_back(e);
+  return e;
+}
+
+Face SurfaceMesh::newFace() {
+  fprops_.pushBack();
+  return Face(facesSize() - 1);
+}
+
+Edge SurfaceMesh::findEdge(Vertex a, Vertex b) const {
+  const auto& ea = vedges_[a];
+  const auto& eb = vedges_[b];
+  const auto& shorter = ea.size() <= eb.size() ? ea : eb;
+  for (Edge e : shorter) {
+    const auto& ev = everts_[e];
+    if ((ev[0] == a && ev[1] == b) || (ev[0] == b && ev[1] == a)) return e;
+  }
+  return Edge();
+}
+
+bool SurfaceMesh::runsForward(Face f, Edge e) const {
+  const auto& fv = fverts_[f];
+  const auto& ev = everts_[e];
+  for (int i = 0; i < 3; ++i)
+    if (fv[static_cast<std::size_t>(i)] == ev[0]) return fv[static_cast<std::size_t>((i + 1) % 3)] == ev[1];
+  return false;
+}
+
+void SurfaceMesh::removeEdgeFromVertex(Vertex v, Edge e) {
+  auto& list = vedges_[v];
+  auto it = std::find(list.begin(), list.end(), e);
+  if (it != list.end()) {
+    *it = list.back();
+    list.pop_back();
+  }
+}
+
+void SurfaceMesh::detachFace(Face f) {
+  for (Edge e : fedges_[f]) {
+    auto& ef = efaces_[e];
+    if (ef[0] == f) {
+      ef[0] = ef[1];
+      ef[1] = Face();
+    } else if (ef[1] == f) {
+      ef[1] = Face();
+    }
+  }
+}
+
+void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c) {
+  fverts_[f] = {a, b, c};
+  const std::array<Vertex, 3> v{a, b, c};
+  for (std::size_t i = 0; i < 3; ++i) {
+    Vertex x = v[i], y = v[(i + 1) % 3];
+    Edge e = findEdge(x, y);
+    if (!e.isValid()) e = newEdge(x, y);
+    auto& ef = efaces_[e];
+    if (!ef[0].isValid())
+      ef[0] = f;
+    else
+      ef[1] = f;
+    fedges_[f][i] = e;
+  }
+}
+
+void SurfaceMesh::deleteEmptyEdge(Edge e) {
+  if (edeleted_[e] || efaces_[e][0].isValid()) return;
+  removeEdgeFromVertex(everts_[e][0], e);
+  removeEdgeFromVertex(everts_[e][1], e);
+  edeleted_[e] = true;
+  ++deletedEdges_;
+}
+
+// ---- edits ----------------------------------------------------------------------
+
+Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
+  check(a, "addFace");
+  check(b, "addFace");
+  check(c, "addFace");
+  if (a == b || b == c || c == a) return Face();
+  const std::array<Vertex, 3> v{a, b, c};
+  for (std::size_t i = 0; i < 3; ++i) {
+    Vertex x = v[i], y = v[(i + 1) % 3];
+    Edge e = findEdge(x, y);
+    if (!e.isValid()) continue;
+    const auto& ef = efaces_[e];
+    if (ef[1].isValid()) return Face();  // would be a third face
+    // The existing face must run the edge y -> x.
+    const auto& ov = fverts_[ef[0]];
+    for (std::size_t k = 0; k < 3; ++k)
+      if (ov[k] == x && ov[(k + 1) % 3] == y) return Face();
+  }
+  Face f = newFace();
+  attachFace(f, a, b, c);
+  ++topologyVersion_;
+  return f;
+}
+
+void SurfaceMesh::deleteFace(Face f) {
+  check(f, "deleteFace");
+  detachFace(f);
+  for (Edge e : fedges_[f]) deleteEmptyEdge(e);
+  fdeleted_[f] = true;
+  ++deletedFaces_;
+  ++topologyVersion_;
+}
+
+void SurfaceMesh::deleteVertex(Vertex v) {
+  check(v, "deleteVertex");
+  for (Face f : faces(v)) deleteFace(f);
+  vdeleted_[v] = true;
+  ++deletedVertices_;
+  ++topologyVersion_;
+}
+
+Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
+  check(e, "splitEdge");
+  const Vertex a = everts_[e][0], b = everts_[e][1];
+  std::array<Face, 2> fs = efaces_[e];
+  const Vertex m = addVertex(p);
+  std::array<std::array<Vertex, 3>, 2> tri{};
+  for (std::size_t k = 0; k < 2; ++k) {
+    if (!fs[k].isValid()) continue;
+    // Rotate so the split edge is (x, y) and c is opposite.
+    auto fv = fverts_[fs[k]];
+    while (!((fv[0] == a && fv[1] == b) || (fv[0] == b && fv[1] == a)))
+      std::rotate(fv.begin(), fv.begin() + 1, fv.end());
+    tri[k] = fv;
+    detachFace(fs[k]);
+  }
+  // e becomes (a, m); a new edge (m, b) inherits its properties.
+  removeEdgeFromVertex(b, e);
+  everts_[e] = {a, m};
+  vedges_[m].push_back(e);
+  const Edge e2 = newEdge(m, b);
+  eprops_.copyElement(e.idx(), e2.idx());
+  everts_[e2] = {m, b};
+  efaces_[e2] = {Face(), Face()};
+  for (std::size_t k = 0; k < 2; ++k) {
+    if (!fs[k].isValid()) continue;
+    const auto [x, y, c] = tri[k];
+    const std::array<Edge, 3> oldEdges = fedges_[fs[k]];
+    const Face g = newFace();
+    fprops_.copyElement(fs[k].idx(), g.idx());
+    attachFace(fs[k], x, m, c);
+    attachFace(g, m, y, c);
+    for (Edge oe : oldEdges) deleteEmptyEdge(oe);
+  }
+  ++topologyVersion_;
+  return m;
+}
+
+Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
+  check(f, "splitFace");
+  const auto [a, b, c] = fverts_[f];
+  const Vertex m = addVertex(p);
+  detachFace(f);
+  const Face g1 = newFace();
+  const Face g2 = newFace();
+  fprops_.copyElement(f.idx(), g1.idx());
+  fprops_.copyElement(f.idx(), g2.idx());
+  attachFace(f, a, b, m);
+  attachFace(g1, b, c, m);
+  attachFace(g2, c, a, m);
+  ++topologyVersion_;
+  return m;
+}
+
+std::vector<Face> SurfaceMesh::faces(Vertex v) const {
+  std::vector<Face> out;
+  for (Edge e : vedges_[v])
+    for (Face f : efaces_[e])
+      if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
+  return out;
+}
+
+Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
+  check(v, "splitVertex");
+  if (fan.empty()) return Vertex();
+  const std::vector<Face> around = faces(v);
+  for (std::size_t i = 0; i < fan.size(); ++i) {
+    if (!isValid(fan[i]) || std::find(around.begin(), around.end(), fan[i]) == around.end()) return Vertex();
+    for (std::size_t j = 0; j < i; ++j)
+      if (fan[i] == fan[j]) return Vertex();
+  }
+  if (fan.size() >= around.size()) return Vertex();
+
+  vprops_.pushBack();
+  const Vertex nv(verticesSize() - 1);
+  vprops_.copyElement(v.idx(), nv.idx());
+  vedges_[nv].clear();
+
+  std::vector<Edge> touched;
+  std::vector<std::array<Vertex, 3>> tris;
+  for (Face f : fan) {
+    auto fv = fverts_[f];
+    for (auto& x : fv)
+      if (x == v) x = nv;
+    tris.push_back(fv);
+    for (Edge e : fedges_[f]) touched.push_back(e);
+    detachFace(f);
+  }
+  for (std::size_t i = 0; i < fan.size(); ++i) {
+    attachFace(fan[i], tris[i][0], tris[i][1], tris[i][2]);
+  }
+  // An edge that lost all its faces to the new vertex keeps its properties on its copy.
+  for (Edge e : touched) {
+    if (efaces_[e][0].isValid() || edeleted_[e]) continue;
+    const Vertex other = everts_[e][0] == v ? everts_[e][1] : everts_[e][0];
+    const Edge ne = findEdge(nv, other);
+    if (ne.isValid()) {
+      const auto keepV = everts_[ne];
+      const auto keepF = efaces_[ne];
+      eprops_.copyElement(e.idx(), ne.idx());
+      everts_[ne] = keepV;
+      efaces_[ne] = keepF;
+    }
+    deleteEmptyEdge(e);
+  }
+  // Duplicated edges (shared with a non-fan face) inherit the original's properties.
+  for (Edge e : vedges_[nv]) {
+    const Vertex other = otherVertex(e, nv);
+    const Edge orig = findEdge(v, other);
+    if (orig.isValid() && orig != e) {
+      const auto keepV = everts_[e];
+      const auto keepF = efaces_[e];
+      eprops_.copyElement(orig.idx(), e.idx());
+      everts_[e] = keepV;
+      efaces_[e] = keepF;
+    }
+  }
+  ++topologyVersion_;
+  return nv;
+}
+
+std::vector<int> SurfaceMesh::fanGroups(Vertex v, const std::vector<Face>& around, Edge ignore) const {
+  std::vector<int> group(around.size());
+  std::iota(group.begin(), group.end(), 0);
+  auto find = [&](int i) {
+    while (group[static_cast<std::size_t>(i)] != i) i = group[static_cast<std::size_t>(i)];
+    return i;
+  };
+  auto indexOf = [&](Face f) { return static_cast<int>(std::find(around.begin(), around.end(), f) - around.begin()); };
+  for (Edge ve : vedges_[v]) {
+    if (ve == ignore || !efaces_[ve][1].isValid()) continue;
+    group[static_cast<std::size_t>(find(indexOf(efaces_[ve][0])))] = find(indexOf(efaces_[ve][1]));
+  }
+  for (std::size_t i = 0; i < group.size(); ++i) group[i] = find(static_cast<int>(i));
+  return group;
+}
+
+Edge SurfaceMesh::separateEdge(Edge e) {
+  check(e, "separateEdge");
+  if (isBoundary(e)) return Edge();
+  const Face f0 = efaces_[e][0], f1 = efaces_[e][1];
+  // Moves the faces of f1's group around v onto a new vertex if they are not
+  // connected to f0 around v (ignoring `ignore`).
+  auto splitOff = [&](Vertex v, Edge ignore) {
+    const std::vector<Face> around = faces(v);
+    const std::vector<int> group = fanGroups(v, around, ignore);
+    auto groupOf = [&](Face f) {
+      return group[static_cast<std::size_t>(std::find(around.begin(), around.end(), f) - around.begin())];
+    };
+    if (groupOf(f0) == groupOf(f1)) return Vertex();
+    std::vector<Face> fan;
+    for (std::size_t i = 0; i < around.size(); ++i)
+      if (group[i] == groupOf(f1)) fan.push_back(around[i]);
+    return splitVertex(v, fan);
+  };
+  for (int end = 0; end < 2; ++end) {
+    const Vertex v = everts_[e][static_cast<std::size_t>(end)];
+    const Vertex w = everts_[e][static_cast<std::size_t>(1 - end)];
+    const Vertex nv = splitOff(v, e);
+    if (!nv.isValid()) continue;
+    // The far end may now join the two sides at a single vertex: split it as well,
+    // so that no vertex is shared by faces that no edge connects.
+    const Vertex nw = splitOff(w, Edge());
+    return findEdge(nv, nw.isValid() ? nw : w);
+  }
+  return Edge();
+}
+
+Compaction SurfaceMesh::garbageCollection() {
+  Compaction c;
+  c.vertexMap.assign(verticesSize(), Vertex());
+  c.edgeMap.assign(edgesSize(), Edge());
+  c.faceMap.assign(facesSize(), Face());
+  std::vector<std::size_t> keepV, keepE, keepF;
+  for (std::size_t i = 0; i < verticesSize(); ++i)
+    if (!vdeleted_[Vertex(i)]) {
+      c.vertexMap[i] = Vertex(keepV.size());
+      keepV.push_back(i);
+    }
+  for (std::size_t i = 0; i < edgesSize(); ++i)
+    if (!edeleted_[Edge(i)]) {
+      c.edgeMap[i] = Edge(keepE.size());
+      keepE.push_back(i);
+    }
+  for (std::size_t i = 0; i < facesSize(); ++i)
+    if (!fdeleted_[Face(i)]) {
+      c.faceMap[i] = Face(keepF.size());
+      keepF.push_back(i);
+    }
+  vprops_.compact(keepV);
+  eprops_.compact(keepE);
+  fprops_.compact(keepF);
+  bindProperties();
+  for (auto& list : vedges_.vector())
+    for (auto& e : list) e = c.edgeMap[e.idx()];
+  for (auto& ev : everts_.vector())
+    for (auto& v : ev) v = c.vertexMap[v.idx()];
+  for (auto& ef : efaces_.vector())
+    for (auto& f : ef)
+      if (f.isValid()) f = c.faceMap[f.idx()];
+  for (auto& fv : fverts_.vector())
+    for (auto& v : fv) v = c.vertexMap[v.idx()];
+  for (auto& fe : fedges_.vector())
+    for (auto& e : fe) e = c.edgeMap[e.idx()];
+  deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
+  ++topologyVersion_;
+  return c;
+}
+
+// ---- queries ---------------------------------------------------------------------
+
+bool SurfaceMesh::isBoundary(Vertex v) const {
+  for (Edge e : vedges_[v])
+    if (isBoundary(e)) return true;
+  return false;
+}
+
+Vertex SurfaceMesh::otherVertex(Edge e, Vertex v) const {
+  const auto& ev = everts_[e];
+  return ev[0] == v ? ev[1] : (ev[1] == v ? ev[0] : Vertex());
+}
+
+Face SurfaceMesh::otherFace(Edge e, Face f) const {
+  const auto& ef = efaces_[e];
+  return ef[0] == f ? ef[1] : (ef[1] == f ? ef[0] : Face());
+}
+
+Vertex SurfaceMesh::oppositeVertex(Face f, Edge e) const {
+  const int i = localIndex(f, e);
+  return i < 0 ? Vertex() : fverts_[f][static_cast<std::size_t>((i + 2) % 3)];
+}
+
+Edge SurfaceMesh::oppositeEdge(Face f, Vertex v) const {
+  const int i = localIndex(f, v);
+  return i < 0 ? Edge() : fedges_[f][static_cast<std::size_t>((i + 1) % 3)];
+}
+
+int SurfaceMesh::localIndex(Face f, Vertex v) const {
+  for (int i = 0; i < 3; ++i)
+    if (fverts_[f][static_cast<std::size_t>(i)] == v) return i;
+  return -1;
+}
+
+int SurfaceMesh::localIndex(Face f, Edge e) const {
+  for (int i = 0; i < 3; ++i)
+    if (fedges_[f][static_cast<std::size_t>(i)] == e) return i;
+  return -1;
+}
+
+bool SurfaceMesh::isClosed() const {
+  if (nFaces() == 0) return false;
+  for (Edge e : edges())
+    if (isBoundary(e)) return false;
+  return true;
+}
+
+// ---- geometry --------------------------------------------------------------------
+
+Normal SurfaceMesh::faceNormal(Face f) const {
+  const auto& v = fverts_[f];
+  const Normal n = (points_[v[1]] - points_[v[0]]).cross(points_[v[2]] - points_[v[0]]);
+  const double len = n.norm();
+  return len > 0.0 ? Normal(n / len) : Normal::Zero();
+}
+
+double SurfaceMesh::faceArea(Face f) const {
+  const auto& v = fverts_[f];
+  return 0.5 * (points_[v[1]] - points_[v[0]]).cross(points_[v[2]] - points_[v[0]]).norm();
+}
+
+Point SurfaceMesh::centroid(Face f) const {
+  const auto& v = fverts_[f];
+  return (points_[v[0]] + points_[v[1]] + points_[v[2]]) / 3.0;
+}
+
+double SurfaceMesh::edgeLength(Edge e) const { return (points_[everts_[e][0]] - points_[everts_[e][1]]).norm(); }
+
+std::vector<Normal> SurfaceMesh::vertexNormals() const {
+  std::vector<Normal> n(verticesSize(), Normal::Zero());
+  for (Face f : faces()) {
+    const auto& v = fverts_[f];
+    // The unnormalised cross product is twice the area times the unit normal.
+    const Normal w = (points_[v[1]] - points_[v[0]]).cross(points_[v[2]] - points_[v[0]]);
+    for (Vertex x : v) n[x.idx()] += w;
+  }
+  for (auto& x : n) {
+    const double len = x.norm();
+    if (len > 0.0) x /= len;
+  }
+  return n;
+}
+
+double SurfaceMesh::area() const {
+  double a = 0.0;
+  for (Face f : faces()) a += faceArea(f);
+  return a;
+}
+
+BoundingBox SurfaceMesh::bounds() const {
+  BoundingBox b;
+  bool first = true;
+  for (Vertex v : vertices()) {
+    const Point& p = points_[v];
+    if (first) {
+      b.min = b.max = p;
+      first = false;
+    } else {
+      b.min = b.min.cwiseMin(p);
+      b.max = b.max.cwiseMax(p);
+    }
+  }
+  return b;
+}
+
+// ---- global structure ----------------------------------------------------------
+
+Components SurfaceMesh::connectedComponents() const {
+  Components c;
+  c.faceLabel.assign(facesSize(), -1);
+  c.vertexLabel.assign(verticesSize(), -1);
+  std::vector<Face> stack;
+  for (Face seed : faces()) {
+    if (c.faceLabel[seed.idx()] >= 0) continue;
+    const int label = c.count++;
+    c.faceLabel[seed.idx()] = label;
+    stack.push_back(seed);
+    while (!stack.empty()) {
+      const Face f = stack.back();
+      stack.pop_back();
+      for (Vertex v : fverts_[f]) c.vertexLabel[v.idx()] = label;
+      for (Edge e : fedges_[f]) {
+        const Face g = otherFace(e, f);
+        if (g.isValid() && c.faceLabel[g.idx()] < 0) {
+          c.faceLabel[g.idx()] = label;
+          stack.push_back(g);
+        }
+      }
+    }
+  }
+  return c;
+}
+
+std::vector<std::vector<Vertex>> SurfaceMesh::boundaryLoops() const {
+  // A boundary edge runs x -> y in its face; the loop walks it y -> x.
+  std::vector<std::vector<Vertex>> loops;
+  std::vector<bool> used(edgesSize(), false);
+  auto walkFrom = [&](Edge e, Vertex& from, Vertex& to) {
+    const Face f = efaces_[e][0];
+    if (runsForward(f, e)) {
+      from = everts_[e][1];
+      to = everts_[e][0];
+    } else {
+      from = everts_[e][0];
+      to = everts_[e][1];
+    }
+  };
+  for (Edge start : edges()) {
+    if (!isBoundary(start) || used[start.idx()]) continue;
+    std::vector<Vertex> loop;
+    Edge e = start;
+    while (e.isValid() && !used[e.idx()]) {
+      used[e.idx()] = true;
+      Vertex from, to;
+      walkFrom(e, from, to);
+      loop.push_back(from);
+      Edge next;
+      for (Edge c : vedges_[to]) {
+        if (used[c.idx()] || !isBoundary(c)) continue;
+        Vertex cf, ct;
+        walkFrom(c, cf, ct);
+        if (cf == to) {
+          next = c;
+          break;
+        }
+      }
+      e = next;
+    }
+    loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+ValidationReport SurfaceMesh::validate() const {
+  ValidationReport r;
+  auto problem = [&](auto&&... parts) {
+    std::ostringstream s;
+    (s << ... << parts);
+    r.problems.push_back(s.str());
+  };
+  std::size_t nv = 0, ne = 0, nf = 0;
+  for (std::size_t i = 0; i < verticesSize(); ++i) nv += vdeleted_[Vertex(i)] ? 0 : 1;
+  for (std::size_t i = 0; i < edgesSize(); ++i) ne += edeleted_[Edge(i)] ? 0 : 1;
+  for (std::size_t i = 0; i < facesSize(); ++i) nf += fdeleted_[Face(i)] ? 0 : 1;
+  if (nv != nVertices() || ne != nEdges() || nf != nFaces()) problem("deleted-element counters disagree with flags");
+
+  for (Face f : faces()) {
+    const auto& v = fverts_[f];
+    const auto& e = fedges_[f];
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!isValid(v[i])) problem(f, " has dead or invalid vertex ", v[i]);
+      if (!isValid(e[i])) {
+        problem(f, " has dead or invalid edge ", e[i]);
+        continue;
+      }
+      const auto& ev = everts_[e[i]];
+      const Vertex x = v[i], y = v[(i + 1) % 3];
+      if (!((ev[0] == x && ev[1] == y) || (ev[0] == y && ev[1] == x)))
+        problem(f, " edge ", i, " (", e[i], ") does not join ", x, " and ", y);
+      if (efaces_[e[i]][0] != f && efaces_[e[i]][1] != f) problem(e[i], " does not list its face ", f);
+    }
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) {
+      problem(f, " repeats a vertex");
+    } else if (isValid(v[0]) && isValid(v[1]) && isValid(v[2])) {
+      const double a = faceArea(f);
+      if (!(a > 0.0) || !std::isfinite(a)) problem(f, " is degenerate (area ", a, ")");
+    }
+  }
+  for (Edge e : edges()) {
+    const auto& ev = everts_[e];
+    const auto& ef = efaces_[e];
+    if (!isValid(ev[0]) || !isValid(ev[1]) || ev[0] == ev[1]) {
+      problem(e, " has invalid end vertices");
+      continue;
+    }
+    if (!ef[0].isValid()) problem(e, " has no face (dangling edge)");
+    for (Face f : ef) {
+      if (!f.isValid()) continue;
+      if (!isValid(f))
+        problem(e, " lists dead face ", f);
+      else if (localIndex(f, e) < 0)
+        problem(e, " lists ", f, " which does not use it");
+    }
+    if (ef[0].isValid() && ef[1].isValid() && isValid(ef[0]) && isValid(ef[1])) {
+      if (ef[0] == ef[1])
+        problem(e, " lists the same face twice");
+      else if (runsForward(ef[0], e) == runsForward(ef[1], e))
+        problem(e, " is used by ", ef[0], " and ", ef[1], " in the same direction (inconsistent orientation)");
+    }
+    for (Vertex x : ev)
+      if (std::count(vedges_[x].begin(), vedges_[x].end(), e) != 1) problem(x, " does not list its edge ", e, " once");
+  }
+  for (Vertex v : vertices()) {
+    std::unordered_set<std::uint32_t> others;
+    for (Edge e : vedges_[v]) {
+      if (!isValid(e)) {
+        problem(v, " lists dead edge ", e);
+        continue;
+      }
+      const Vertex o = otherVertex(e, v);
+      if (!o.isValid()) problem(v, " lists ", e, " which does not touch it");
+      if (!others.insert(o.idx()).second) problem(v, " has two edges to ", o);
+    }
+    if (!points_[v].allFinite()) problem(v, " has a non-finite position");
+  }
+  return r;
+}
+
+}  // namespace ld::mesh

@@ -1,0 +1,371 @@
+#include "sim/mesh/surface_mesh.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "tests/support/test_support.h"
+
+namespace ld::mesh {
+namespace {
+
+#define EXPECT_VALID(m)                             \
+  do {                                              \
+    const auto report_ = (m).validate();            \
+    EXPECT_TRUE(report_.ok()) << report_.message(); \
+  } while (0)
+
+// Unit square split along its diagonal: v0(0,0) v1(1,0) v2(1,1) v3(0,1).
+SurfaceMesh square() {
+  SurfaceMesh m;
+  auto v0 = m.addVertex({0, 0, 0}), v1 = m.addVertex({1, 0, 0}), v2 = m.addVertex({1, 1, 0}),
+       v3 = m.addVertex({0, 1, 0});
+  m.addFace(v0, v1, v2);
+  m.addFace(v0, v2, v3);
+  return m;
+}
+
+// Closed, outward-oriented tetrahedron.
+SurfaceMesh tetrahedron() {
+  SurfaceMesh m;
+  auto a = m.addVertex({0, 0, 0}), b = m.addVertex({1, 0, 0}), c = m.addVertex({0, 1, 0}), d = m.addVertex({0, 0, 1});
+  m.addFace(a, c, b);
+  m.addFace(a, b, d);
+  m.addFace(b, c, d);
+  m.addFace(c, a, d);
+  return m;
+}
+
+// n x n grid of quads on [0,n]^2, each split into two triangles.
+SurfaceMesh grid(int n) {
+  SurfaceMesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) m.addVertex({double(i), double(j), 0.0});
+  auto v = [&](int i, int j) { return Vertex(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.addFace(v(i, j), v(i + 1, j), v(i + 1, j + 1));
+      m.addFace(v(i, j), v(i + 1, j + 1), v(i, j + 1));
+    }
+  return m;
+}
+
+long euler(const SurfaceMesh& m) {
+  return static_cast<long>(m.nVertices()) - static_cast<long>(m.nEdges()) + static_cast<long>(m.nFaces());
+}
+
+TEST(SurfaceMesh, BuildsSquareWithSharedDiagonal) {
+  SurfaceMesh m = square();
+  EXPECT_EQ(m.nVertices(), 4u);
+  EXPECT_EQ(m.nFaces(), 2u);
+  EXPECT_EQ(m.nEdges(), 5u);
+  EXPECT_VALID(m);
+  const Edge diag = m.findEdge(Vertex(0), Vertex(2));
+  ASSERT_TRUE(diag.isValid());
+  EXPECT_FALSE(m.isBoundary(diag));
+  EXPECT_TRUE(m.isBoundary(m.findEdge(Vertex(0), Vertex(1))));
+  EXPECT_FALSE(m.findEdge(Vertex(1), Vertex(3)).isValid());
+  EXPECT_TRUE(ld::test::near(m.area(), 1.0, 1e-12));
+  EXPECT_FALSE(m.isClosed());
+}
+
+TEST(SurfaceMesh, AddFaceRefusesInconsistentOrientationThirdFaceAndRepeats) {
+  SurfaceMesh m = square();
+  const auto v4 = m.addVertex({2, 0, 0});
+  const auto before = m.topologyVersion();
+  // (v0, v1) already runs v0 -> v1 in face 0: same direction again is refused.
+  EXPECT_FALSE(m.addFace(Vertex(0), Vertex(1), v4).isValid());
+  EXPECT_FALSE(m.addFace(Vertex(0), Vertex(0), v4).isValid());
+  // Diagonal (v0, v2) already has two faces.
+  const auto v5 = m.addVertex({0.5, 0.2, 1});
+  EXPECT_FALSE(m.addFace(Vertex(2), Vertex(0), v5).isValid());
+  EXPECT_EQ(m.topologyVersion(), before);
+  EXPECT_EQ(m.nFaces(), 2u);
+  // The consistent direction is accepted.
+  EXPECT_TRUE(m.addFace(Vertex(1), Vertex(0), v5).isValid());
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, DeadHandlesThrow) {
+  SurfaceMesh m = square();
+  EXPECT_THROW(m.addFace(Vertex(0), Vertex(1), Vertex(99)), InvalidHandleError);
+  m.deleteFace(Face(0));
+  EXPECT_THROW(m.deleteFace(Face(0)), InvalidHandleError);
+  EXPECT_THROW(m.splitFace(Face(0), Point::Zero()), InvalidHandleError);
+}
+
+TEST(SurfaceMesh, TetrahedronIsClosedWithOutwardNormals) {
+  SurfaceMesh m = tetrahedron();
+  EXPECT_VALID(m);
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_EQ(euler(m), 2);
+  EXPECT_TRUE(m.boundaryLoops().empty());
+  const Point c(0.25, 0.25, 0.25);
+  for (Face f : m.faces()) EXPECT_GT(m.faceNormal(f).dot(m.centroid(f) - c), 0.0);
+  const auto n = m.vertexNormals();
+  for (Vertex v : m.vertices()) {
+    EXPECT_TRUE(ld::test::near(n[v.idx()].norm(), 1.0, 1e-12));
+    EXPECT_GT(n[v.idx()].dot(m.position(v) - c), 0.0);
+  }
+}
+
+TEST(SurfaceMesh, DeleteFaceRemovesOrphanEdgesAndKeepsVertices) {
+  SurfaceMesh m = square();
+  m.deleteFace(Face(1));
+  EXPECT_EQ(m.nFaces(), 1u);
+  EXPECT_EQ(m.nEdges(), 3u);
+  EXPECT_EQ(m.nVertices(), 4u);
+  EXPECT_TRUE(m.isIsolated(Vertex(3)));
+  EXPECT_TRUE(m.isBoundary(m.findEdge(Vertex(0), Vertex(2))));
+  EXPECT_TRUE(m.hasGarbage());
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, DeleteVertexRemovesItsFan) {
+  SurfaceMesh m = tetrahedron();
+  m.deleteVertex(Vertex(3));
+  EXPECT_EQ(m.nFaces(), 1u);
+  EXPECT_EQ(m.nVertices(), 3u);
+  EXPECT_EQ(m.nEdges(), 3u);
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, SplitInteriorEdgeMakesFourTrianglesAndInheritsProperties) {
+  SurfaceMesh m = square();
+  auto rest = m.addEdgeProperty<double>("e:rest", -1.0);
+  auto label = m.addFaceProperty<int>("f:label", 0);
+  const Edge diag = m.findEdge(Vertex(0), Vertex(2));
+  rest[diag] = 7.0;
+  label[Face(0)] = 3;
+  label[Face(1)] = 4;
+  const Vertex mid = m.splitEdge(diag, {0.5, 0.5, 0});
+  ASSERT_TRUE(mid.isValid());
+  EXPECT_EQ(m.nFaces(), 4u);
+  EXPECT_EQ(m.nEdges(), 8u);
+  EXPECT_EQ(m.valence(mid), 4u);
+  EXPECT_VALID(m);
+  EXPECT_EQ(rest[m.findEdge(Vertex(0), mid)], 7.0);
+  EXPECT_EQ(rest[m.findEdge(mid, Vertex(2))], 7.0);
+  EXPECT_EQ(rest[m.findEdge(mid, Vertex(1))], -1.0);
+  int threes = 0, fours = 0;
+  for (Face f : m.faces()) (label[f] == 3 ? threes : fours) += (label[f] == 3 || label[f] == 4) ? 1 : 0;
+  EXPECT_EQ(threes, 2);
+  EXPECT_EQ(fours, 2);
+  EXPECT_TRUE(ld::test::near(m.area(), 1.0, 1e-12));
+  EXPECT_EQ(euler(m), 1);
+}
+
+TEST(SurfaceMesh, SplitBoundaryEdgeKeepsBoundaryAndOrientation) {
+  SurfaceMesh m = square();
+  const Vertex mid = m.splitEdge(m.findEdge(Vertex(0), Vertex(1)), {0.5, 0, 0});
+  EXPECT_EQ(m.nFaces(), 3u);
+  EXPECT_TRUE(m.isBoundary(mid));
+  EXPECT_VALID(m);
+  for (Face f : m.faces()) EXPECT_GT(m.faceNormal(f).z(), 0.0);
+  const auto loops = m.boundaryLoops();
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_EQ(loops[0].size(), 5u);
+}
+
+TEST(SurfaceMesh, SplitFaceMakesThree) {
+  SurfaceMesh m = tetrahedron();
+  const Vertex c = m.splitFace(Face(0), m.centroid(Face(0)));
+  EXPECT_EQ(m.nFaces(), 6u);
+  EXPECT_EQ(m.valence(c), 3u);
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_EQ(euler(m), 2);
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, SplitVertexSeparatesAFanAndDuplicatesSharedEdges) {
+  // The centre of a 2x2 grid has six faces; move the three above y = 1 as a fan.
+  SurfaceMesh m = grid(2);
+  const Vertex centre(4);
+  auto home = m.addVertexProperty<double>("v:tag", 0.0);
+  home[centre] = 5.0;
+  std::vector<Face> upper;
+  for (Face f : m.faces(centre))
+    if (m.centroid(f).y() > 1.0) upper.push_back(f);
+  ASSERT_EQ(upper.size(), 3u);
+  const std::size_t edgesBefore = m.nEdges();
+  const Vertex nv = m.splitVertex(centre, upper);
+  ASSERT_TRUE(nv.isValid());
+  EXPECT_VALID(m);
+  EXPECT_EQ(home[nv], 5.0);
+  EXPECT_TRUE(m.position(nv).isApprox(m.position(centre)));
+  // The edges to (0,1) and (2,1) were shared by upper and lower faces: duplicated.
+  EXPECT_EQ(m.nEdges(), edgesBefore + 2);
+  EXPECT_EQ(m.faces(nv).size(), 3u);
+  EXPECT_EQ(m.faces(centre).size(), 3u);
+  // Every face of a 2x2 grid touches the centre, so the halves now fall apart.
+  EXPECT_EQ(m.connectedComponents().count, 2);
+  // Invalid requests leave the mesh unchanged.
+  const auto version = m.topologyVersion();
+  EXPECT_FALSE(m.splitVertex(centre, {}).isValid());
+  const auto all = m.faces(centre);
+  EXPECT_FALSE(m.splitVertex(centre, all).isValid());
+  const std::vector<Face> foreign{m.faces(nv).front()};  // no longer around centre
+  EXPECT_FALSE(m.splitVertex(centre, foreign).isValid());
+  EXPECT_EQ(m.topologyVersion(), version);
+}
+
+TEST(SurfaceMesh, SeparateEdgesCutsAStraightSlitAcrossAGrid) {
+  SurfaceMesh m = grid(4);
+  // Cut along y = 2 from x = 0 to x = 4: all four edges in turn.
+  const int n = 4;
+  auto v = [&](int i, int j) { return Vertex(j * (n + 1) + i); };
+  auto rest = m.addEdgeProperty<double>("e:rest", 1.5);
+  int separated = 0;
+  for (int i = 0; i < n; ++i) {
+    const Edge e = m.findEdge(v(i, 2), v(i + 1, 2));
+    ASSERT_TRUE(e.isValid());
+    const Edge copy = m.separateEdge(e);
+    ASSERT_TRUE(copy.isValid()) << "edge " << i;
+    EXPECT_TRUE(m.isBoundary(e));
+    EXPECT_TRUE(m.isBoundary(copy));
+    EXPECT_EQ(rest[copy], 1.5);
+    EXPECT_VALID(m);
+    ++separated;
+  }
+  EXPECT_EQ(separated, 4);
+  const auto comps = m.connectedComponents();
+  EXPECT_EQ(comps.count, 2);
+  EXPECT_EQ(m.boundaryLoops().size(), 2u);
+  // Every vertex on the cut line, both rim vertices included, is duplicated once:
+  // no vertex is left joining the two halves.
+  EXPECT_EQ(m.nVertices(), 25u + 5u);
+  for (int i = 0; i <= n; ++i) {
+    const auto fs = m.faces(v(i, 2));
+    for (Face f : fs) EXPECT_EQ(comps.faceLabel[f.idx()], comps.faceLabel[fs.front().idx()]);
+  }
+}
+
+TEST(SurfaceMesh, SeparateEdgeRefusesAClosedSlit) {
+  SurfaceMesh m = grid(4);
+  const Edge inner = m.findEdge(Vertex(2 * 5 + 1), Vertex(2 * 5 + 2));  // both ends interior
+  ASSERT_TRUE(inner.isValid());
+  const auto before = m.topologyVersion();
+  EXPECT_FALSE(m.separateEdge(inner).isValid());
+  EXPECT_EQ(m.topologyVersion(), before);
+  EXPECT_FALSE(m.separateEdge(m.findEdge(Vertex(0), Vertex(1))).isValid());  // boundary edge
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, GarbageCollectionCompactsAndRemaps) {
+  SurfaceMesh m = grid(3);
+  auto tag = m.addFaceProperty<int>("f:tag");
+  for (Face f : m.faces()) tag[f] = static_cast<int>(f.idx());
+  m.deleteFace(Face(0));
+  m.deleteFace(Face(5));
+  m.deleteVertex(Vertex(15));  // a corner: takes its faces
+  const auto kept = m.nFaces();
+  const Compaction c = m.garbageCollection();
+  EXPECT_FALSE(m.hasGarbage());
+  EXPECT_EQ(m.nFaces(), kept);
+  EXPECT_EQ(m.facesSize(), kept);
+  EXPECT_FALSE(c.faceMap[0].isValid());
+  ASSERT_TRUE(c.faceMap[1].isValid());
+  EXPECT_EQ(tag[c.faceMap[1]], 1);
+  EXPECT_FALSE(c.vertexMap[15].isValid());
+  EXPECT_VALID(m);
+}
+
+TEST(SurfaceMesh, ComponentsAndBoundaryLoops) {
+  SurfaceMesh m = tetrahedron();
+  const auto a = m.addVertex({5, 0, 0}), b = m.addVertex({6, 0, 0}), c = m.addVertex({5, 1, 0});
+  m.addFace(a, b, c);
+  const auto comps = m.connectedComponents();
+  EXPECT_EQ(comps.count, 2);
+  EXPECT_NE(comps.faceLabel[0], comps.faceLabel[4]);
+  EXPECT_EQ(comps.vertexLabel[a.idx()], comps.faceLabel[4]);
+  const auto loops = m.boundaryLoops();
+  ASSERT_EQ(loops.size(), 1u);
+  // Walked against the face's direction a -> b -> c.
+  EXPECT_EQ(loops[0].size(), 3u);
+  const auto it = std::find(loops[0].begin(), loops[0].end(), b);
+  ASSERT_NE(it, loops[0].end());
+  EXPECT_EQ(*(it + 1 == loops[0].end() ? loops[0].begin() : it + 1), a);
+}
+
+TEST(SurfaceMesh, CopiesAreIndependentValues) {
+  SurfaceMesh m = square();
+  auto p = m.addVertexProperty<double>("v:mass", 1.0);
+  SurfaceMesh copy = m;
+  copy.splitFace(Face(0), {0.7, 0.3, 0});
+  copy.getVertexProperty<double>("v:mass")[Vertex(0)] = 9.0;
+  copy.position(Vertex(1)).x() = 3.0;
+  EXPECT_EQ(m.nFaces(), 2u);
+  EXPECT_EQ(p[Vertex(0)], 1.0);
+  EXPECT_EQ(m.position(Vertex(1)).x(), 1.0);
+  EXPECT_VALID(copy);
+  SurfaceMesh moved = std::move(copy);
+  EXPECT_EQ(moved.nFaces(), 4u);
+  EXPECT_VALID(moved);
+  EXPECT_EQ(copy.nFaces(), 0u);  // NOLINT: a moved-from mesh is empty and usable
+  copy = m;
+  EXPECT_EQ(copy.nFaces(), 2u);
+}
+
+TEST(SurfaceMesh, PropertiesGrowAndRejectWrongTypes) {
+  SurfaceMesh m = square();
+  auto w = m.addVertexProperty<float>("v:w", 2.0f);
+  m.addVertex({3, 3, 3});
+  EXPECT_EQ(w.vector().size(), 5u);
+  EXPECT_EQ(w[Vertex(4)], 2.0f);
+  EXPECT_THROW(m.getVertexProperty<double>("v:w"), PropertyError);
+  EXPECT_THROW(m.addVertexProperty<float>("v:w"), PropertyError);
+  EXPECT_THROW(m.removeVertexProperty("v:point"), PropertyError);
+  EXPECT_FALSE(m.getEdgeProperty<int>("nope").isValid());
+  m.removeVertexProperty("v:w");
+  EXPECT_FALSE(m.getVertexProperty<float>("v:w").isValid());
+}
+
+// Thousands of random edits on closed and open meshes with validate() after each.
+TEST(SurfaceMesh, RandomEditsKeepInvariants) {
+  std::mt19937 rng(20261122);
+  for (int trial = 0; trial < 2; ++trial) {
+    SurfaceMesh m = trial == 0 ? tetrahedron() : grid(3);
+    const bool closed = trial == 0;
+    const long chi = euler(m);
+    for (int step = 0; step < 1500; ++step) {
+      std::vector<Face> fs(m.faces().begin(), m.faces().end());
+      std::vector<Edge> es(m.edges().begin(), m.edges().end());
+      const int op = static_cast<int>(rng() % (closed ? 2 : 5));
+      if (op == 0) {
+        const Edge e = es[rng() % es.size()];
+        const double t = 0.3 + 0.4 * std::uniform_real_distribution<double>(0, 1)(rng);
+        const Point p = (1 - t) * m.position(m.vertex(e, 0)) + t * m.position(m.vertex(e, 1));
+        ASSERT_TRUE(m.splitEdge(e, p).isValid());
+      } else if (op == 1) {
+        const Face f = fs[rng() % fs.size()];
+        ASSERT_TRUE(m.splitFace(f, m.centroid(f)).isValid());
+      } else if (op == 2) {
+        // Split a vertex along one of its fans (a connected run of faces).
+        const Vertex v(static_cast<std::uint32_t>(rng() % m.verticesSize()));
+        if (!m.isValid(v) || m.isIsolated(v)) continue;
+        auto around = m.faces(v);
+        if (around.size() < 2) continue;
+        std::vector<Face> fan{around[rng() % around.size()]};
+        m.splitVertex(v, fan);  // may be refused; either way the mesh stays valid
+      } else if (op == 3) {
+        const Edge e = es[rng() % es.size()];
+        if (!m.isBoundary(e)) m.separateEdge(e);
+      } else {
+        if (fs.size() > 4) m.deleteFace(fs[rng() % fs.size()]);
+      }
+      const auto r = m.validate();
+      ASSERT_TRUE(r.ok()) << "trial " << trial << " step " << step << " op " << op << ":\n" << r.message();
+      if (closed) {
+        ASSERT_TRUE(m.isClosed());
+        ASSERT_EQ(euler(m), chi);
+      }
+      if (step % 300 == 299) {
+        m.garbageCollection();
+        ASSERT_TRUE(m.validate().ok());
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ld::mesh
