@@ -1,6 +1,7 @@
 // Stand-in for libFuzzer when the compiler has none: runs every file of a seed
 // corpus, then a fixed number of seeded random mutations of them (byte flips,
 // truncations, insertions, splices). A crash or sanitizer report fails the test.
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>

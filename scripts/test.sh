@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# README command 2: build and run every test.
+#  1. Release build with -Werror; all GoogleTest suites (GUI tests in a real OpenGL
+#     window under Xvfb; trainee-store tests also against a throwaway PostgreSQL server).
+#  2. AddressSanitizer + UndefinedBehaviorSanitizer build of the sim core, parser and
+#     assessment tests (ctest label "sanitize").
+#  3. libFuzzer (clang) on every parser for a bounded time from the seed corpora.
+# LD_TEST_QUICK=1 skips 2 and 3.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+bash scripts/install-deps.sh
+jobs=$(nproc)
+fuzz_seconds=${LD_FUZZ_SECONDS:-20}
+
+echo "== 1/3 Release build and all tests"
+cmake -S . -B build-test -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_WERROR=ON >/dev/null
+cmake --build build-test -j"$jobs"
+xvfb-run -a -s "-screen 0 1920x1080x24" ctest --test-dir build-test --output-on-failure -j"$jobs" --timeout 600
+
+if [ "${LD_TEST_QUICK:-0}" = 1 ]; then
+  exit 0
+fi
+
+echo "== 2/3 ASan/UBSan build of the sim core, parser and assessment tests"
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLD_WITH_QT=OFF -DLD_SANITIZE=ON \
+  -DLD_WERROR=ON -DLD_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-asan -j"$jobs"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LD_PROPERTY_SCALE=${LD_PROPERTY_SCALE:-0.25} \
+  ctest --test-dir build-asan -L sanitize --output-on-failure -j"$jobs" --timeout 900
+
+echo "== 3/3 libFuzzer, ${fuzz_seconds}s per parser"
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLD_WITH_QT=OFF \
+  -DLD_FUZZ=ON -DLD_BUILD_TESTS=ON -DLD_BUILD_BENCHMARKS=OFF >/dev/null
+fuzzers=$(cmake --build build-fuzz --target help | sed -n 's/^\([a-z_]*_fuzz\):.*/\1/p')
+cmake --build build-fuzz -j"$jobs" --target $fuzzers
+for f in $fuzzers; do
+  corpus=$(find "$root/tests/fuzz" -type d -path "*/corpus*" | while read -r d; do
+    grep -qs "$f" "$(dirname "$d")/CMakeLists.txt" && echo "$d"; done | head -1)
+  work=$(mktemp -d)
+  [ -n "$corpus" ] && cp -r "$corpus"/. "$work"/ 2>/dev/null || true
+  echo "-- $f (seeds from ${corpus:-none})"
+  build-fuzz/fuzz/"$f" -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -print_final_stats=0 "$work" 2>&1 | tail -3
+  rm -rf "$work"
+done
+echo "all test stages passed"
