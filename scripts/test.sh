@@ -33,15 +33,14 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
 echo "== 3/3 libFuzzer, ${fuzz_seconds}s per parser"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLD_WITH_QT=OFF \
   -DLD_FUZZ=ON -DLD_BUILD_TESTS=ON -DLD_BUILD_BENCHMARKS=OFF >/dev/null
-fuzzers=$(cmake --build build-fuzz --target help | sed -n 's/^\([a-z_]*_fuzz\):.*/\1/p')
+fuzzers=$(cut -d= -f1 build-fuzz/fuzzers.txt)
 cmake --build build-fuzz -j"$jobs" --target $fuzzers
-for f in $fuzzers; do
-  corpus=$(find "$root/tests/fuzz" -type d -path "*/corpus*" | while read -r d; do
-    grep -qs "$f" "$(dirname "$d")/CMakeLists.txt" && echo "$d"; done | head -1)
+while IFS== read -r f corpus; do
+  [ -n "$f" ] || continue
   work=$(mktemp -d)
-  [ -n "$corpus" ] && cp -r "$corpus"/. "$work"/ 2>/dev/null || true
-  echo "-- $f (seeds from ${corpus:-none})"
-  build-fuzz/fuzz/"$f" -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -print_final_stats=0 "$work" 2>&1 | tail -3
+  [ -d "$corpus" ] && cp -r "$corpus"/. "$work"/
+  echo "-- $f (seeds from ${corpus})"
+  build-fuzz/fuzz/"$f" -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -timeout=10 "$work" 2>&1 | tail -2
   rm -rf "$work"
-done
+done < build-fuzz/fuzzers.txt
 echo "all test stages passed"
