@@ -1,0 +1,125 @@
+// Active-region mode (the thesis's local deformation, with sleeping): only awake
+// vertices are integrated; a vertex wakes when an external force acts on it (contact)
+// or a moving neighbour pulls it, and falls asleep after a run of quiet steps.
+#include <algorithm>
+#include <cmath>
+
+#include "sim/physics/mass_spring.h"
+
+namespace ld::physics {
+
+using Vec3 = Eigen::Vector3d;
+
+StepInfo step(const Params& params, State& state, double dt);
+
+namespace {
+
+void ensureActiveSet(State& s, const Params& p) {
+  auto& a = s.active;
+  const auto& c = s.cache;
+  if (a.topologyVersion == c.topologyVersion && a.awake.size() == c.nVertexSlots) return;
+  const std::size_t n = c.nVertexSlots;
+  a.csrStart.assign(n + 1, 0);
+  for (const auto& sp : c.springs) {
+    ++a.csrStart[sp.i + 1];
+    ++a.csrStart[sp.j + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) a.csrStart[i + 1] += a.csrStart[i];
+  a.csrSpring.assign(a.csrStart[n], 0);
+  std::vector<std::uint32_t> fill(a.csrStart.begin(), a.csrStart.end() - 1);
+  for (std::uint32_t k = 0; k < c.springs.size(); ++k) {
+    a.csrSpring[fill[c.springs[k].i]++] = k;
+    a.csrSpring[fill[c.springs[k].j]++] = k;
+  }
+  // Start with every vertex awake; the quiet ones fall asleep within sleepAfter steps.
+  a.awake.assign(n, 1);
+  a.quiet.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (c.invMass[i] == 0.0) a.awake[i] = 0;
+  a.topologyVersion = c.topologyVersion;
+  (void)p;
+}
+
+}  // namespace
+
+StepInfo activeStep(const Params& params, State& state, double dt) {
+  ensureActiveSet(state, params);
+  auto& a = state.active;
+  const auto& c = state.cache;
+  auto& x = state.mesh.positions();
+  auto& v = state.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
+  const auto& home = state.mesh.getVertexProperty<Vec3>(kHomeProp).vector();
+  const auto& ext = state.mesh.getVertexProperty<Vec3>(kForceProp).vector();
+  const auto& tp = params.tissue;
+  const auto& ao = params.active;
+  const std::size_t n = c.nVertexSlots;
+
+  // Contact wakes.
+  for (std::size_t i = 0; i < n; ++i)
+    if (c.invMass[i] != 0.0 && ext[i].squaredNorm() > 0.0) {
+      a.awake[i] = 1;
+      a.quiet[i] = 0;
+    }
+  a.list.clear();
+  for (std::uint32_t i = 0; i < n; ++i)
+    if (a.awake[i]) a.list.push_back(i);
+
+  // Gather forces for awake vertices at the old positions (sleepers are fixed).
+  auto& xn = state.cache.xt;
+  auto& vn = state.cache.vt;
+  xn.resize(a.list.size());
+  vn.resize(a.list.size());
+  const double damp = 1.0 - dt * tp.damping;
+  const double ft2 = ao.forceThreshold * ao.forceThreshold, vt2 = ao.speedThreshold * ao.speedThreshold;
+  std::vector<std::uint8_t> loud(a.list.size(), 0);
+  bool finite = true;
+  for (std::size_t q = 0; q < a.list.size(); ++q) {
+    const std::uint32_t i = a.list[q];
+    Vec3 f = ext[i] + c.mass[i] * tp.gravity - tp.homeK * (x[i] - home[i]);
+    for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
+      const auto& sp = c.springs[a.csrSpring[k]];
+      const std::uint32_t j = sp.i == i ? sp.j : sp.i;
+      const Vec3 d = x[j] - x[i];
+      const double l = d.norm();
+      if (l > 0.0) f += (sp.k * (l - sp.rest) / l) * d;
+    }
+    vn[q] = damp * v[i] + (dt * c.invMass[i]) * f;
+    xn[q] = x[i] + dt * vn[q];
+    finite = finite && xn[q].allFinite() && vn[q].allFinite();
+    loud[q] = f.squaredNorm() > ft2 || vn[q].squaredNorm() > vt2;
+  }
+  if (!finite) {
+    // Let the monitored full step handle it.
+    Params full = params;
+    full.active.enabled = false;
+    a.topologyVersion = ~std::uint64_t{0};
+    return step(full, state, dt);
+  }
+  for (std::size_t q = 0; q < a.list.size(); ++q) {
+    const std::uint32_t i = a.list[q];
+    x[i] = xn[q];
+    v[i] = vn[q];
+    if (loud[q]) {
+      a.quiet[i] = 0;
+      // Propagate: a loud vertex wakes its neighbours.
+      for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
+        const auto& sp = c.springs[a.csrSpring[k]];
+        const std::uint32_t j = sp.i == i ? sp.j : sp.i;
+        if (!a.awake[j] && c.invMass[j] != 0.0) {
+          a.awake[j] = 1;
+          a.quiet[j] = 0;
+        }
+      }
+    } else if (++a.quiet[i] >= ao.sleepAfter && ext[i].squaredNorm() == 0.0) {
+      a.awake[i] = 0;
+      v[i].setZero();
+    }
+  }
+  state.time += dt;
+  ++state.steps;
+  StepInfo info;
+  info.activeVertices = a.list.size();
+  return info;
+}
+
+}  // namespace ld::physics

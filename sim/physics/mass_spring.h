@@ -1,0 +1,186 @@
+#pragma once
+// The thesis's surface mass-spring model and its integrators.
+//
+// Forces on vertex i (all in mN):
+//   mesh springs   Σ_j k_ij (|x_j − x_i| − rest_ij) · (x_j − x_i)/|x_j − x_i|
+//   home spring    −homeK · (x_i − home_i)
+//   damping        −damping · m_i · v_i
+//   gravity        m_i · g;  external  "v:force"
+// Parameters (Params) are a value apart from the state (State); step() advances the
+// state by dt. The state holds the mesh, whose properties (tissue_properties.h) are
+// kept current after every step, so the cutter and the renderer read the mesh.
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/mesh/surface_mesh.h"
+#include "sim/physics/tissue_properties.h"
+
+namespace ld::physics {
+
+enum class Method {
+  ExplicitEuler,    // the thesis's: x += dt·v(t), v += dt·a(t)
+  SymplecticEuler,  // v += dt·a(t), x += dt·v(t+dt)
+  Verlet,           // velocity Verlet, damping treated implicitly in the second half kick
+  Rk4,              // classic fourth-order Runge–Kutta
+  ImplicitEuler,    // linearised backward Euler, conjugate gradients (Baraff & Witkin 1998)
+};
+
+[[nodiscard]] std::string_view methodName(Method m);
+// Throws UnknownNameError listing the valid names.
+[[nodiscard]] Method methodFromName(std::string_view name);
+[[nodiscard]] std::span<const Method> allMethods();
+[[nodiscard]] int convergenceOrder(Method m);  // 1, 1, 2, 4, 1
+
+struct StabilityOptions {
+  bool enabled = true;
+  // A step is rejected when the new kinetic energy exceeds (1 + energyJump) × the
+  // energy before the step plus the external work, or a speed exceeds maxSpeed.
+  double energyJump = 0.5;
+  double absoluteSlack = 1e-9;  // [mJ] for states at rest
+  double maxSpeed = 1e6;        // [mm/s]
+  int maxSubsteps = 16;         // retries with 2, 4, … substeps before going implicit
+  int stickySteps = 200;        // keep the substep count that worked for this many steps
+};
+
+struct ActiveRegionOptions {
+  bool enabled = false;
+  // A vertex is active while its net force (without damping) is above
+  // forceThreshold or its speed above speedThreshold; active vertices wake their
+  // neighbours; vertices with an external force are always awake (contact).
+  double forceThreshold = 0.05;  // [mN]
+  double speedThreshold = 0.05;  // [mm/s]
+  int sleepAfter = 20;           // quiet steps before a vertex sleeps
+};
+
+struct Params {
+  TissueParams tissue;
+  Method method = Method::SymplecticEuler;
+  StabilityOptions stability;
+  ActiveRegionOptions active;
+  int threads = 1;  // 1 or 2 worker threads for the symplectic step
+  double cgTolerance = 1e-8;
+  int cgMaxIterations = 200;
+};
+
+// What the stability monitor recorded.
+struct StabilityLog {
+  std::uint64_t warnings = 0;           // steps whose first attempt was rejected
+  std::uint64_t substepRetries = 0;     // retries with substeps
+  std::uint64_t implicitFallbacks = 0;  // steps finished with the implicit method
+  std::uint64_t velocityResets = 0;     // last resort: kept the old state, zeroed velocities
+  std::string lastReason;               // "non-finite", "energy jump", "speed"
+};
+
+struct Energy {
+  double kinetic = 0, spring = 0, home = 0;
+  [[nodiscard]] double total() const { return kinetic + spring + home; }
+};
+
+namespace detail {
+struct Spring {
+  std::uint32_t i, j;
+  double rest, k;
+};
+// Compact arrays derived from the mesh, rebuilt when mesh.topologyVersion() changes
+// (or after State::invalidate()). Springs follow edge order, vertices the mesh's
+// vertex order, so memory access follows the mesh.
+struct Cache {
+  std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
+  std::size_t nVertexSlots = 0;
+  std::vector<Spring> springs;
+  std::vector<double> invMass;  // 0 for deleted vertices (they never move)
+  std::vector<double> mass;
+  // Scratch (kept to avoid allocations per step).
+  std::vector<Eigen::Vector3d> f, f2, xb, vb, k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, xt, vt;
+  std::uint64_t rebuilds = 0;
+};
+struct ActiveSet {
+  std::vector<std::uint8_t> awake;
+  std::vector<std::uint16_t> quiet;
+  std::vector<std::uint32_t> list;                 // awake vertices
+  std::vector<std::uint32_t> springList;           // springs touching an awake vertex
+  std::vector<std::uint32_t> csrStart, csrSpring;  // vertex → incident springs
+  std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
+};
+}  // namespace detail
+
+struct State {
+  mesh::SurfaceMesh mesh;  // positions and tissue properties
+  double time = 0.0;
+  std::uint64_t steps = 0;
+  StabilityLog stability;
+  int stickySubsteps = 1;
+  int stickyLeft = 0;
+  detail::Cache cache;
+  detail::ActiveSet active;
+
+  // Call after changing masses, rest lengths or stiffnesses without a topology edit.
+  void invalidate() { cache.topologyVersion = std::numeric_limits<std::uint64_t>::max(); }
+};
+
+// Builds a state from a mesh; attaches the tissue properties when they are missing.
+[[nodiscard]] State makeState(mesh::SurfaceMesh m, const TissueParams& p);
+
+struct StepInfo {
+  bool accepted = true;  // first attempt passed the monitor
+  int substeps = 1;
+  bool implicitFallback = false;
+  std::size_t activeVertices = 0;  // vertices integrated (all, unless active-region mode)
+};
+
+// Advances the state by dt with params.method, under the stability monitor.
+// The state never receives a non-finite value.
+StepInfo step(const Params& params, State& state, double dt);
+
+// One raw step of `method` without the monitor (for analysis; may diverge).
+// Returns false when the result is not finite (the state is still updated).
+bool rawStep(const Params& params, State& state, Method method, double dt);
+
+[[nodiscard]] Energy energy(const Params& params, const State& state);
+// Largest norm of the net static force (springs, home, gravity, external) on a vertex.
+[[nodiscard]] double maxResidualForce(const Params& params, const State& state);
+// Net force on every vertex slot (damping included), for tests and the oracle.
+[[nodiscard]] std::vector<Eigen::Vector3d> forces(const Params& params, const State& state);
+
+struct SettleOptions {
+  double dt = 1e-3;
+  double tolerance = 1e-3;       // [mN] residual force at which the tissue counts as settled
+  double speedTolerance = 0.01;  // [mm/s] and no vertex faster than this
+  double maxTime = 20.0;         // [s] simulated
+  int checkEvery = 10;           // steps between residual checks
+  // progress in [0, 1] (estimated from the residual's decay) and the residual.
+  std::function<void(double progress, double residual)> progress;
+};
+struct SettleResult {
+  bool converged = false;
+  std::uint64_t steps = 0;
+  double time = 0.0;
+  double residual = 0.0;
+};
+// Runs the dynamics until the residual force falls under the tolerance, then zeroes
+// the velocities (the thesis's start positions).
+SettleResult settle(const Params& params, State& state, const SettleOptions& opt = {});
+
+// True when every position and velocity is finite.
+[[nodiscard]] bool isFinite(const State& state);
+
+// Sets flush-to-zero and denormals-are-zero for this thread while alive.
+class FlushDenormals {
+ public:
+  FlushDenormals();
+  ~FlushDenormals();
+  FlushDenormals(const FlushDenormals&) = delete;
+  FlushDenormals& operator=(const FlushDenormals&) = delete;
+
+ private:
+  unsigned saved_ = 0;
+};
+
+}  // namespace ld::physics
