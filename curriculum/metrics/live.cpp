@@ -1,0 +1,304 @@
+#include "curriculum/metrics/live.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace ld::curriculum {
+namespace {
+
+constexpr std::size_t kWindow = 32;  // drawn segments searched ahead for the progress point
+constexpr double kCell = 2.0;        // mm, grid cell for polygon lookup
+constexpr std::int64_t kMaxCells = 1024;
+
+std::int64_t cellOf(double x) { return static_cast<std::int64_t>(std::floor(std::clamp(x / kCell, -1e9, 1e9))); }
+std::int64_t key(std::int64_t cx, std::int64_t cy) {
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(cx + (1LL << 31)) << 32) ^
+                                   static_cast<std::uint64_t>(cy + (1LL << 31)));
+}
+
+}  // namespace
+
+LiveDeviation::LiveDeviation(const Polyline& drawn, std::size_t maxOverlap)
+    : d_(joinedPoints(drawn)), maxOverlap_(maxOverlap) {}
+
+Eigen::Vector3d LiveDeviation::drawnPoint(std::size_t seg, double u) const {
+  if (d_.size() < 2) return d_.empty() ? Eigen::Vector3d::Zero() : d_[0];
+  return d_[seg] + u * (d_[seg + 1] - d_[seg]);
+}
+
+Eigen::Vector3d LiveDeviation::closestAhead(const Eigen::Vector3d& p, std::size_t& seg, double& u) const {
+  if (d_.size() < 2) {
+    seg = 0;
+    u = 0.0;
+    return drawnPoint(0, 0.0);
+  }
+  double best = std::numeric_limits<double>::infinity();
+  std::size_t bestSeg = seg;
+  double bestU = u;
+  const std::size_t last = std::min(d_.size() - 2, seg + kWindow);
+  for (std::size_t i = seg; i <= last; ++i) {
+    const Eigen::Vector3d a = d_[i], ab = d_[i + 1] - d_[i];
+    const double l2 = ab.squaredNorm();
+    double t = l2 > 0.0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+    if (i == seg) t = std::max(t, u);
+    const double dist = (a + t * ab - p).squaredNorm();
+    if (dist < best) {
+      best = dist;
+      bestSeg = i;
+      bestU = t;
+    }
+  }
+  seg = bestSeg;
+  u = bestU;
+  return drawnPoint(seg, u);
+}
+
+void LiveDeviation::addCutPoint(const Eigen::Vector3d& p) {
+  if (d_.empty() || finished_) return;
+  std::vector<Eigen::Vector3d> poly;
+  if (!started_) {
+    started_ = true;
+    seg_ = 0;
+    u_ = 0.0;
+    p_ = closestAhead(p, seg_, u_);
+    for (std::size_t i = 0; i <= seg_ && i < d_.size(); ++i) poly.push_back(d_[i]);
+    poly.push_back(p_);
+    poly.push_back(p);
+  } else {
+    std::size_t seg = seg_;
+    double u = u_;
+    const Eigen::Vector3d pNew = closestAhead(p, seg, u);
+    poly.push_back(p_);
+    for (std::size_t i = seg_ + 1; i <= seg; ++i) poly.push_back(d_[i]);
+    poly.push_back(pNew);
+    poly.push_back(p);
+    poly.push_back(lastCut_);
+    seg_ = seg;
+    u_ = u;
+    p_ = pNew;
+  }
+  lastCut_ = p;
+  addPolygon(poly);
+}
+
+void LiveDeviation::finish() {
+  if (!started_ || finished_) return;
+  finished_ = true;
+  std::vector<Eigen::Vector3d> poly{p_};
+  for (std::size_t i = seg_ + 1; i < d_.size(); ++i) poly.push_back(d_[i]);
+  poly.push_back(lastCut_);
+  addPolygon(poly);
+}
+
+void LiveDeviation::addPolygon(const std::vector<Eigen::Vector3d>& poly) {
+  for (Plane pl : {Plane::XY, Plane::YZ, Plane::XZ}) {
+    std::vector<Eigen::Vector2d> loop;
+    loop.reserve(poly.size());
+    for (const auto& q : poly) loop.push_back(project(q, pl));
+    value_.plane(pl) += addToPlane(planes_[static_cast<int>(pl)], loop);
+  }
+}
+
+double LiveDeviation::addToPlane(PlaneAcc& acc, const std::vector<Eigen::Vector2d>& loop) {
+  std::vector<Segment2> segs;
+  appendLoop(loop, segs);
+  Eigen::Vector4d box(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                      -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity());
+  for (const auto& q : loop) {
+    box[0] = std::min(box[0], q.x());
+    box[1] = std::min(box[1], q.y());
+    box[2] = std::max(box[2], q.x());
+    box[3] = std::max(box[3], q.y());
+  }
+  if (!box.allFinite()) return 0.0;
+  // A polygon enclosing no area has w = 0 almost everywhere: it changes nothing.
+  const double diag2 = (box[2] - box[0]) * (box[2] - box[0]) + (box[3] - box[1]) * (box[3] - box[1]);
+  if (absWindingArea(segs) <= 1e-14 * (1.0 + diag2)) return 0.0;
+
+  const std::int64_t cx0 = cellOf(box[0]), cy0 = cellOf(box[1]), cx1 = cellOf(box[2]), cy1 = cellOf(box[3]);
+  const bool isBig = (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > kMaxCells;
+  std::vector<std::uint32_t> cand = acc.big;
+  if (isBig) {
+    for (std::uint32_t i = 0; i < acc.polys.size(); ++i) cand.push_back(i);
+  } else {
+    for (std::int64_t cx = cx0; cx <= cx1; ++cx)
+      for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
+        auto it = acc.grid.find(key(cx, cy));
+        if (it != acc.grid.end()) cand.insert(cand.end(), it->second.begin(), it->second.end());
+      }
+  }
+  std::sort(cand.begin(), cand.end());
+  cand.erase(std::unique(cand.begin(), cand.end()), cand.end());
+  cand.erase(std::remove_if(cand.begin(), cand.end(),
+                            [&](std::uint32_t i) {
+                              const Eigen::Vector4d& b = acc.boxes[i];
+                              return b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1];
+                            }),
+             cand.end());
+  if (cand.size() > maxOverlap_) {
+    cand.erase(cand.begin(), cand.end() - static_cast<std::ptrdiff_t>(maxOverlap_));
+    exact_ = false;
+  }
+  std::vector<Segment2> local;
+  for (std::uint32_t i : cand) local.insert(local.end(), acc.polys[i].begin(), acc.polys[i].end());
+  const double before = local.empty() ? 0.0 : absWindingArea(local);
+  local.insert(local.end(), segs.begin(), segs.end());
+  const double after = absWindingArea(local);
+
+  const auto id = static_cast<std::uint32_t>(acc.polys.size());
+  acc.polys.push_back(std::move(segs));
+  acc.boxes.push_back(box);
+  if (isBig) {
+    acc.big.push_back(id);
+  } else {
+    for (std::int64_t cx = cx0; cx <= cx1; ++cx)
+      for (std::int64_t cy = cy0; cy <= cy1; ++cy) acc.grid[key(cx, cy)].push_back(id);
+  }
+  return after - before;
+}
+
+// ---------------------------------------------------------------------------
+
+LiveMetrics::LiveMetrics(Polyline drawn, const MetricSettings& settings, double seriesInterval)
+    : drawn_(std::move(drawn)), s_(settings), interval_(seriesInterval), dev_(drawn_), dwell_(settings.contactRadius) {
+  const std::size_t n = drawn_.size() > 1 ? drawn_.size() - 1 : 0;
+  coverage_.resize(n);
+  coveredLen_.assign(n, 0.0);
+  drawnLength_ = piecesLength(drawn_);
+  lastTip_[0] = lastTip_[1] = Eigen::Vector3d::Zero();
+}
+
+void LiveMetrics::start(double t) {
+  started_ = true;
+  t0_ = tNow_ = t;
+}
+
+void LiveMetrics::touch(double t) {
+  if (!started_) start(t);
+  tNow_ = std::max(tNow_, t);
+  if (tNow_ - lastSeries_ >= interval_) {
+    series_.push_back({tNow_, current()});
+    lastSeries_ = tNow_;
+  }
+}
+
+void LiveMetrics::addTip(const TipSample& s) {
+  const int h = static_cast<int>(s.hand);
+  if (haveTip_[h]) len_[h] += (s.tip - lastTip_[h]).norm();
+  lastTip_[h] = s.tip;
+  haveTip_[h] = true;
+  touch(s.t);
+}
+
+void LiveMetrics::addContact(const ContactSample& s) {
+  dwell_.add(s);
+  touch(s.t);
+}
+
+void LiveMetrics::addGrasp(const ForceSample& s) {
+  if (s.grasping) fMax_ = std::max(fMax_, s.force);
+  if (haveForce_ && s.grasping && lastForce_.grasping) {
+    const double dt = s.t - lastForce_.t;
+    fIntegral_ += 0.5 * (s.force + lastForce_.force) * dt;
+    fTime_ += dt;
+  }
+  lastForce_ = s;
+  haveForce_ = true;
+  touch(s.t);
+}
+
+void LiveMetrics::addPathCrossing(double t) {
+  ++pathBreaks_;
+  touch(t);
+}
+
+void LiveMetrics::addCutSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const double len = (b - a).norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(len / s_.distanceStep)));
+  double prev = distanceToPath(a, drawn_);
+  for (int k = 1; k <= n; ++k) {
+    const double dk = distanceToPath(a + (b - a) * (double(k) / n), drawn_);
+    distMax_ = std::max(distMax_, dk);
+    distIntegral_ += 0.5 * (prev + dk) * len / n;
+    prev = dk;
+  }
+  distLength_ += len;
+  for (std::size_t i = 0; i + 1 < drawn_.size(); ++i) {
+    if (drawn_[i].stop) continue;
+    double t0, t1;
+    if (!bandInterval(drawn_[i].p, drawn_[i + 1].p, a, b, s_.band, t0, t1)) continue;
+    auto& iv = coverage_[i];
+    iv.emplace_back(t0, t1);
+    std::sort(iv.begin(), iv.end());
+    std::vector<std::pair<double, double>> merged;
+    for (const auto& x : iv) {
+      if (!merged.empty() && x.first <= merged.back().second)
+        merged.back().second = std::max(merged.back().second, x.second);
+      else
+        merged.push_back(x);
+    }
+    iv = std::move(merged);
+    double c = 0.0;
+    for (const auto& x : iv) c += x.second - x.first;
+    c *= (drawn_[i + 1].p - drawn_[i].p).norm();
+    coveredTotal_ += c - coveredLen_[i];
+    coveredLen_[i] = c;
+  }
+}
+
+void LiveMetrics::addCutPoint(double t, const Eigen::Vector3d& p) {
+  distMax_ = std::max(distMax_, distanceToPath(p, drawn_));
+  distPointSum_ += distanceToPath(p, drawn_);
+  if (!cut_.empty() && !cut_.back().stop) addCutSegment(cut_.back().p, p);
+  cut_.push_back({p, false});
+  dev_.addCutPoint(p);
+  touch(t);
+}
+
+void LiveMetrics::endCutPiece() {
+  if (cut_.empty() || cut_.back().stop) return;
+  const bool single = cut_.size() == 1 || cut_[cut_.size() - 2].stop;
+  if (single) addCutSegment(cut_.back().p, cut_.back().p);
+  cut_.back().stop = true;
+}
+
+Metrics LiveMetrics::current() const {
+  Metrics m;
+  m.deviation = dev_.value();
+  DwellTracker d = dwell_;
+  d.finish(tNow_);
+  m.contact = d.result();
+  m.contactBreaks = std::max(0, dwell_.contactIntervals() - 1);
+  m.pathBreaks = pathBreaks_;
+  m.totalTimeS = tNow_ - t0_;
+  m.stretchMaxN = fMax_;
+  m.stretchMeanN = fTime_ > 0.0 ? fIntegral_ / fTime_ : fMax_;
+  m.cutDistanceMaxMm = distMax_;
+  m.cutDistanceMeanMm = distLength_ > 0.0 ? distIntegral_ / distLength_
+                        : cut_.empty()    ? 0.0
+                                          : distPointSum_ / static_cast<double>(cut_.size());
+  m.bandFraction = drawnLength_ > 0.0 ? std::clamp(coveredTotal_ / drawnLength_, 0.0, 1.0) : 0.0;
+  m.pathLengthLeftMm = len_[0];
+  m.pathLengthRightMm = len_[1];
+  return m;
+}
+
+Metrics LiveMetrics::finish(double tEnd) {
+  if (!started_) start(tEnd);
+  endCutPiece();
+  dwell_.finish(tEnd);
+  dev_.finish();
+  tNow_ = std::max(tNow_, tEnd);
+  Metrics m = current();
+  if (!cut_.empty()) {
+    m.deviation = deviation(drawn_, cut_);
+    m.deviationThesis = deviationThesis(drawn_, cut_);
+  }
+  series_.push_back({tNow_, m});
+  lastSeries_ = tNow_;
+  return m;
+}
+
+}  // namespace ld::curriculum
