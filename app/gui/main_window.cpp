@@ -1,0 +1,162 @@
+#include "app/gui/main_window.h"
+
+#include <QAction>
+#include <QApplication>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QKeySequence>
+#include <QLabel>
+#include <QMenuBar>
+#include <QMessageBox>
+#include <QProgressDialog>
+#include <QStatusBar>
+
+#include "app/gui/mesh_view.h"
+#include "app/gui/resource_paths.h"
+
+namespace ld::gui {
+
+MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
+  setWindowTitle(QStringLiteral("lapdissect"));
+  view_ = new MeshView(this);
+  setCentralWidget(view_);
+  countsLabel_ = new QLabel(this);
+  dbLabel_ = new QLabel(this);
+  statusBar()->addPermanentWidget(dbLabel_);
+  statusBar()->addPermanentWidget(countsLabel_);
+  buildMenus();
+  updateCounts();
+  setDatabaseUrl({});
+}
+
+MainWindow::~MainWindow() {
+  ++loadId_;
+  if (loader_.joinable()) loader_.join();
+}
+
+void MainWindow::buildMenus() {
+  QMenu* file = menuBar()->addMenu(tr("&File"));
+  QAction* open = file->addAction(tr("&Open model..."), this, &MainWindow::openModel);
+  open->setShortcut(QKeySequence::Open);
+  QAction* reload = file->addAction(tr("Open the &default tissue"), this, [this] {
+    const QString def = defaultModelPath();
+    if (def.isEmpty())
+      QMessageBox::warning(this, tr("lapdissect"), tr("The bundled models (resources/models) were not found."));
+    else
+      loadModelInBackground(def);
+  });
+  reload->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_D));
+  file->addSeparator();
+  QAction* quit = file->addAction(tr("&Quit"), qApp, &QApplication::closeAllWindows);
+  quit->setShortcut(QKeySequence::Quit);
+
+  QMenu* view = menuBar()->addMenu(tr("&View"));
+  wireframeAction_ = view->addAction(tr("&Wireframe"));
+  wireframeAction_->setCheckable(true);
+  wireframeAction_->setShortcut(QKeySequence(Qt::Key_W));
+  connect(wireframeAction_, &QAction::toggled, view_, &MeshView::setWireframe);
+  QAction* twoSided = view->addAction(tr("&Two-sided lighting"));
+  twoSided->setCheckable(true);
+  twoSided->setChecked(view_->twoSided());
+  connect(twoSided, &QAction::toggled, view_, &MeshView::setTwoSided);
+  view->addSeparator();
+  QAction* fit = view->addAction(tr("&Fit to view"), view_, &MeshView::fitToView);
+  fit->setShortcut(QKeySequence(Qt::Key_F));
+  QAction* reset = view->addAction(tr("&Reset view"), view_, &MeshView::resetView);
+  reset->setShortcut(QKeySequence(Qt::Key_R));
+
+  QMenu* help = menuBar()->addMenu(tr("&Help"));
+  help->addAction(tr("&Mouse controls"), this, [this] {
+    QMessageBox::information(this, tr("Mouse controls"),
+                             tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
+                                "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe"));
+  });
+  help->addAction(tr("&About"), this, [this] {
+    QMessageBox::about(
+        this, tr("About lapdissect"),
+        tr("lapdissect: laparoscopic tissue-dissection training.\nRenderer: %1").arg(view_->rendererInfo()));
+  });
+}
+
+void MainWindow::setDatabaseUrl(const QString& url) {
+  // The trainee store is opened by the login flow; until then the window only says
+  // which store it would use, so a first start without a database cannot fail.
+  dbLabel_->setText(url.isEmpty() ? tr("Store: default (not opened)") : tr("Store: %1 (not opened)").arg(url));
+}
+
+void MainWindow::updateCounts() {
+  const RenderMesh& m = view_->mesh();
+  countsLabel_->setText(tr("Vertices: %1   Triangles: %2").arg(m.positions.size()).arg(m.triangles.size()));
+}
+
+void MainWindow::showModel(LoadedModel model) {
+  currentFile_ = QString::fromStdString(model.file.string());
+  const auto warnings = model.warnings.size();
+  view_->setMesh(std::move(model.mesh));
+  updateCounts();
+  setWindowTitle(QStringLiteral("lapdissect - %1").arg(QFileInfo(currentFile_).fileName()));
+  statusBar()->showMessage(
+      warnings ? tr("Loaded %1 (%2 warnings)").arg(currentFile_).arg(warnings) : tr("Loaded %1").arg(currentFile_),
+      8000);
+  emit modelLoaded(currentFile_);
+}
+
+void MainWindow::loadModelNow(const QString& file) { showModel(loadModel(file.toStdString())); }
+
+void MainWindow::openModel() {
+  const QString start =
+      currentFile_.isEmpty() ? findResourcesDir() + "/models" : QFileInfo(currentFile_).absolutePath();
+  const QString file = QFileDialog::getOpenFileName(this, tr("Open model"), start, modelFileFilter());
+  if (!file.isEmpty()) loadModelInBackground(file);
+}
+
+void MainWindow::loadModelInBackground(const QString& file) {
+  const unsigned id = ++loadId_;
+  if (loader_.joinable()) loader_.join();  // a stale load finishes; its result is dropped
+
+  if (!progress_) {
+    progress_ = new QProgressDialog(this);
+    progress_->setWindowModality(Qt::WindowModal);
+    progress_->setMinimumDuration(300);  // small files load before it appears
+    progress_->setAutoClose(false);
+    progress_->setAutoReset(false);
+    connect(progress_, &QProgressDialog::canceled, this, [this] {
+      ++loadId_;
+      progress_->hide();
+      statusBar()->showMessage(tr("Loading cancelled"), 5000);
+    });
+  }
+  const qint64 bytes = QFileInfo(file).size();
+  progress_->setLabelText(
+      tr("Loading %1 (%2 MB)...").arg(QFileInfo(file).fileName()).arg(bytes / 1048576.0, 0, 'f', 1));
+  progress_->setRange(0, 0);  // the importers report no progress: a busy bar
+  progress_->reset();
+  progress_->show();
+
+  loader_ = std::thread([this, id, path = file.toStdString()] {
+    auto model = std::make_shared<LoadedModel>();
+    QString error;
+    try {
+      *model = loadModel(path);
+    } catch (const std::exception& e) {
+      error = QString::fromUtf8(e.what());
+    }
+    // The window outlives this thread (its destructor joins), so queuing to it is safe.
+    QMetaObject::invokeMethod(
+        this, [this, id, model, error] { finishLoad(id, model, error); }, Qt::QueuedConnection);
+  });
+}
+
+void MainWindow::finishLoad(unsigned id, std::shared_ptr<LoadedModel> model, const QString& error) {
+  if (id != loadId_) return;  // cancelled or superseded
+  if (progress_) progress_->hide();
+  if (!error.isEmpty()) {
+    statusBar()->showMessage(error, 10000);
+    emit modelFailed(error);
+    QMessageBox::critical(this, tr("Cannot open model"), error);
+    return;
+  }
+  showModel(std::move(*model));
+}
+
+}  // namespace ld::gui

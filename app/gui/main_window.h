@@ -1,0 +1,58 @@
+#pragma once
+// The main window: the 3-D view, File and View menus, and a status bar with the
+// model's vertex and triangle counts. Models load on a worker thread behind a
+// progress dialog so a large file does not freeze the window.
+#include <QMainWindow>
+#include <QString>
+
+#include <memory>
+#include <thread>
+
+#include "app/gui/model_loader.h"
+
+class QLabel;
+class QProgressDialog;
+class QAction;
+
+namespace ld::gui {
+
+class MeshView;
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+
+ public:
+  explicit MainWindow(QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  [[nodiscard]] MeshView* view() const { return view_; }
+  // Loads on the calling thread (start-up, screenshots). Throws ModelLoadError.
+  void loadModelNow(const QString& file);
+  // Loads on a worker thread with a progress dialog; errors are shown in a message box.
+  void loadModelInBackground(const QString& file);
+  void showModel(LoadedModel model);
+  void setDatabaseUrl(const QString& url);
+
+ public slots:
+  void openModel();
+
+ signals:
+  void modelLoaded(const QString& file);
+  void modelFailed(const QString& reason);
+
+ private:
+  void buildMenus();
+  void finishLoad(unsigned id, std::shared_ptr<LoadedModel> model, const QString& error);
+  void updateCounts();
+
+  MeshView* view_ = nullptr;
+  QLabel* countsLabel_ = nullptr;
+  QLabel* dbLabel_ = nullptr;
+  QAction* wireframeAction_ = nullptr;
+  QProgressDialog* progress_ = nullptr;
+  std::thread loader_;
+  unsigned loadId_ = 0;  // a newer load or a cancel makes older results stale
+  QString currentFile_;
+};
+
+}  // namespace ld::gui

@@ -1,0 +1,169 @@
+#include "app/gui/mesh_view.h"
+
+#include <QMouseEvent>
+#include <QWheelEvent>
+
+#include <stdexcept>
+
+namespace ld::gui {
+
+MeshView::MeshView(QWidget* parent) : QOpenGLWidget(parent) {
+  setFocusPolicy(Qt::StrongFocus);
+  setMinimumSize(320, 240);
+}
+
+MeshView::~MeshView() {
+  if (!isValid()) return;
+  makeCurrent();
+  vbo_.destroy();
+  vao_.destroy();
+  program_.reset();
+  doneCurrent();
+}
+
+void MeshView::setMesh(RenderMesh mesh, bool refit) {
+  mesh_ = std::move(mesh);
+  dirty_ = true;
+  if (refit) fitToView();
+  update();
+}
+
+void MeshView::updatePositions(const std::vector<Vec3f>& positions) {
+  if (positions.size() != mesh_.positions.size()) return;
+  mesh_.positions = positions;
+  dirty_ = true;
+  update();
+}
+
+void MeshView::setWireframe(bool on) {
+  wireframe_ = on;
+  update();
+}
+
+void MeshView::setTwoSided(bool on) {
+  twoSided_ = on;
+  update();
+}
+
+float MeshView::aspect() const {
+  return height() > 0 ? static_cast<float>(width()) / static_cast<float>(height()) : 1.0F;
+}
+
+void MeshView::fitToView() {
+  if (mesh_.empty()) return;
+  const Bounds b = mesh_.bounds();
+  camera_.fit(QVector3D(b.min[0], b.min[1], b.min[2]), QVector3D(b.max[0], b.max[1], b.max[2]), aspect());
+  update();
+}
+
+void MeshView::resetView() {
+  camera_.setOrientation(-90.0F, 50.0F);
+  fitToView();
+}
+
+void MeshView::initializeGL() {
+  initializeOpenGLFunctions();
+  const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  const auto* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
+  rendererInfo_ = QStringLiteral("%1, OpenGL %2").arg(renderer ? renderer : "?", version ? version : "?");
+
+  program_ = std::make_unique<QOpenGLShaderProgram>();
+  if (!program_->addShaderFromSourceFile(QOpenGLShader::Vertex, QStringLiteral(":/shaders/phong.vert")) ||
+      !program_->addShaderFromSourceFile(QOpenGLShader::Fragment, QStringLiteral(":/shaders/phong.frag")) ||
+      !program_->link())
+    qCritical("lapdissect: shader build failed: %s", qPrintable(program_->log()));
+
+  vao_.create();
+  vbo_.create();
+  vbo_.setUsagePattern(QOpenGLBuffer::DynamicDraw);
+  glEnable(GL_DEPTH_TEST);
+  glClearColor(0.15F, 0.17F, 0.21F, 1.0F);
+  dirty_ = true;
+  emit glReady(rendererInfo_);
+}
+
+void MeshView::resizeGL(int, int) {}
+
+void MeshView::upload() {
+  const std::vector<float> corners = buildCornerBuffer(mesh_);
+  cornerCount_ = static_cast<int>(corners.size() / kFloatsPerCorner);
+  vao_.bind();
+  vbo_.bind();
+  vbo_.allocate(corners.data(), static_cast<int>(corners.size() * sizeof(float)));
+  constexpr int stride = kFloatsPerCorner * sizeof(float);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
+  glEnableVertexAttribArray(1);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
+  glDisableVertexAttribArray(2);  // colour: a constant attribute, set per draw
+  vao_.release();
+  dirty_ = false;
+}
+
+void MeshView::paintGL() {
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  if (mesh_.empty() || !program_ || !program_->isLinked()) return;
+  if (dirty_) upload();
+
+  const QMatrix4x4 view = camera_.view();
+  program_->bind();
+  program_->setUniformValue("uModelView", view);
+  program_->setUniformValue("uProjection", camera_.projection(aspect()));
+  program_->setUniformValue("uNormalMatrix", view.normalMatrix());
+  program_->setUniformValue("uTwoSided", twoSided_);
+  program_->setUniformValue("uBackColor", QVector3D(kInteriorColor[0], kInteriorColor[1], kInteriorColor[2]));
+  program_->setUniformValue("uWireColor", QVector3D(0.18F, 0.08F, 0.08F));
+  program_->setUniformValue("uShininess", 30.0F);
+  // Above and to the upper left of the camera, a bit nearer than the target, so a flat
+  // tissue shows a gradient and a wet highlight rather than one flat colour.
+  const float d = camera_.distance();
+  program_->setUniformValue("uKeyLightEye", QVector3D(-0.5F * d, 0.9F * d, -0.4F * d));
+
+  vao_.bind();
+  program_->setAttributeValue(2, kTissueColor[0], kTissueColor[1], kTissueColor[2]);
+  program_->setUniformValue("uWire", false);
+  // Push the surface back a little so the wireframe overlay is not buried in it.
+  glEnable(GL_POLYGON_OFFSET_FILL);
+  glPolygonOffset(1.0F, 1.0F);
+  glDrawArrays(GL_TRIANGLES, 0, cornerCount_);
+  glDisable(GL_POLYGON_OFFSET_FILL);
+  if (wireframe_) {
+    program_->setUniformValue("uWire", true);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    glDrawArrays(GL_TRIANGLES, 0, cornerCount_);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  }
+  vao_.release();
+  program_->release();
+}
+
+void MeshView::mousePressEvent(QMouseEvent* e) {
+  lastMouse_ = e->position().toPoint();
+  const bool pan = e->button() == Qt::RightButton || e->button() == Qt::MiddleButton ||
+                   (e->button() == Qt::LeftButton && (e->modifiers() & Qt::ShiftModifier));
+  drag_ = pan ? Drag::Pan : (e->button() == Qt::LeftButton ? Drag::Orbit : Drag::None);
+}
+
+void MeshView::mouseMoveEvent(QMouseEvent* e) {
+  const QPoint p = e->position().toPoint();
+  const QPoint d = p - lastMouse_;
+  lastMouse_ = p;
+  if (drag_ == Drag::Orbit)
+    camera_.orbit(static_cast<float>(d.x()), static_cast<float>(d.y()));
+  else if (drag_ == Drag::Pan)
+    camera_.pan(static_cast<float>(d.x()), static_cast<float>(d.y()), static_cast<float>(height()));
+  else
+    return;
+  update();
+}
+
+void MeshView::mouseReleaseEvent(QMouseEvent*) { drag_ = Drag::None; }
+
+void MeshView::mouseDoubleClickEvent(QMouseEvent*) { fitToView(); }
+
+void MeshView::wheelEvent(QWheelEvent* e) {
+  camera_.zoom(static_cast<float>(e->angleDelta().y()) / 120.0F);
+  update();
+}
+
+}  // namespace ld::gui

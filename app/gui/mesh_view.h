@@ -1,0 +1,81 @@
+#pragma once
+// The 3-D view: draws a RenderMesh with Phong shading (GLSL 3.3 core), optional
+// wireframe overlay and two-sided lighting, and turns mouse gestures into camera
+// motion. Left drag orbits, right or middle drag (or Shift+left) pans, the wheel
+// zooms, a double click fits the model to the view.
+#include <QOpenGLBuffer>
+#include <QOpenGLFunctions_3_3_Core>
+#include <QOpenGLShaderProgram>
+#include <QOpenGLVertexArrayObject>
+#include <QOpenGLWidget>
+#include <QPoint>
+
+#include <memory>
+
+#include "app/gui/orbit_camera.h"
+#include "app/gui/render_mesh.h"
+
+namespace ld::gui {
+
+class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
+  Q_OBJECT
+
+ public:
+  explicit MeshView(QWidget* parent = nullptr);
+  ~MeshView() override;
+
+  // Shows `mesh`; the camera is fitted to it when `refit`.
+  void setMesh(RenderMesh mesh, bool refit = true);
+  // Same triangles, moved vertices (for a deforming tissue).
+  void updatePositions(const std::vector<Vec3f>& positions);
+  [[nodiscard]] const RenderMesh& mesh() const { return mesh_; }
+
+  [[nodiscard]] bool wireframe() const { return wireframe_; }
+  [[nodiscard]] bool twoSided() const { return twoSided_; }
+  [[nodiscard]] OrbitCamera& camera() { return camera_; }
+  [[nodiscard]] QString rendererInfo() const { return rendererInfo_; }
+  [[nodiscard]] QSize sizeHint() const override { return {1024, 720}; }
+
+  static constexpr float kTissueColor[3] = {0.86F, 0.42F, 0.40F};
+  static constexpr float kInteriorColor[3] = {0.62F, 0.16F, 0.20F};
+
+ public slots:
+  void setWireframe(bool on);
+  void setTwoSided(bool on);
+  void fitToView();
+  void resetView();
+
+ signals:
+  void glReady(const QString& rendererInfo);
+
+ protected:
+  void initializeGL() override;
+  void resizeGL(int w, int h) override;
+  void paintGL() override;
+  void mousePressEvent(QMouseEvent* e) override;
+  void mouseMoveEvent(QMouseEvent* e) override;
+  void mouseReleaseEvent(QMouseEvent* e) override;
+  void mouseDoubleClickEvent(QMouseEvent* e) override;
+  void wheelEvent(QWheelEvent* e) override;
+
+ private:
+  enum class Drag { None, Orbit, Pan };
+  void upload();
+  [[nodiscard]] float aspect() const;
+
+  RenderMesh mesh_;
+  bool dirty_ = false;
+  bool wireframe_ = false;
+  bool twoSided_ = true;
+  OrbitCamera camera_;
+  Drag drag_ = Drag::None;
+  QPoint lastMouse_;
+  QString rendererInfo_;
+
+  std::unique_ptr<QOpenGLShaderProgram> program_;
+  QOpenGLVertexArrayObject vao_;
+  QOpenGLBuffer vbo_{QOpenGLBuffer::VertexBuffer};
+  int cornerCount_ = 0;
+};
+
+}  // namespace ld::gui
