@@ -14,7 +14,10 @@ class IoError : public std::runtime_error {
 class ParseError : public std::runtime_error {
  public:
   ParseError(const std::string& file, long line, const std::string& reason)
-      : std::runtime_error(file + ":" + std::to_string(line) + ": " + reason), file_(file), line_(line), reason_(reason) {}
+      : std::runtime_error(file + ":" + std::to_string(line) + ": " + reason),
+        file_(file),
+        line_(line),
+        reason_(reason) {}
   [[nodiscard]] const std::string& file() const { return file_; }
   [[nodiscard]] long line() const { return line_; }
   [[nodiscard]] const std::string& reason() const { return reason_; }

@@ -1,0 +1,135 @@
+// Export to OBJ, PLY (ASCII) and VRML 2.0. Numbers are written with the shortest
+// representation that reads back to the same double, so a round trip is exact.
+#include <charconv>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "sim/io/mesh_formats.h"
+
+namespace ld::io {
+namespace {
+
+void appendNumber(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
+void appendIndex(std::string& out, std::size_t v) {
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
+// Live vertices renumbered 0..n-1 in handle order, and the live faces' corners.
+struct Flat {
+  std::vector<mesh::Point> points;
+  std::vector<std::array<std::size_t, 3>> faces;
+};
+
+Flat flatten(const mesh::SurfaceMesh& m) {
+  Flat f;
+  std::vector<std::size_t> index(m.verticesSize(), 0);
+  for (mesh::Vertex v : m.vertices()) {
+    index[v.idx()] = f.points.size();
+    f.points.push_back(m.position(v));
+  }
+  for (mesh::Face fc : m.faces()) {
+    const auto& vs = m.vertices(fc);
+    f.faces.push_back({index[vs[0].idx()], index[vs[1].idx()], index[vs[2].idx()]});
+  }
+  return f;
+}
+
+std::string toObj(const Flat& f) {
+  std::string s = "# written by lapdissect\n";
+  for (const auto& p : f.points) {
+    s += "v ";
+    appendNumber(s, p.x());
+    s += ' ';
+    appendNumber(s, p.y());
+    s += ' ';
+    appendNumber(s, p.z());
+    s += '\n';
+  }
+  for (const auto& t : f.faces) {
+    s += "f ";
+    appendIndex(s, t[0] + 1);
+    s += ' ';
+    appendIndex(s, t[1] + 1);
+    s += ' ';
+    appendIndex(s, t[2] + 1);
+    s += '\n';
+  }
+  return s;
+}
+
+std::string toPly(const Flat& f) {
+  std::string s = "ply\nformat ascii 1.0\ncomment written by lapdissect\nelement vertex " +
+                  std::to_string(f.points.size()) + "\nproperty double x\nproperty double y\nproperty double z\n" +
+                  "element face " + std::to_string(f.faces.size()) +
+                  "\nproperty list uchar uint vertex_indices\nend_header\n";
+  for (const auto& p : f.points) {
+    appendNumber(s, p.x());
+    s += ' ';
+    appendNumber(s, p.y());
+    s += ' ';
+    appendNumber(s, p.z());
+    s += '\n';
+  }
+  for (const auto& t : f.faces) {
+    s += "3 ";
+    appendIndex(s, t[0]);
+    s += ' ';
+    appendIndex(s, t[1]);
+    s += ' ';
+    appendIndex(s, t[2]);
+    s += '\n';
+  }
+  return s;
+}
+
+std::string toVrml(const Flat& f) {
+  std::string s =
+      "#VRML V2.0 utf8\n# written by lapdissect\nShape {\n  geometry IndexedFaceSet {\n    solid FALSE\n"
+      "    coord Coordinate {\n      point [\n";
+  for (const auto& p : f.points) {
+    s += "        ";
+    appendNumber(s, p.x());
+    s += ' ';
+    appendNumber(s, p.y());
+    s += ' ';
+    appendNumber(s, p.z());
+    s += ",\n";
+  }
+  s += "      ]\n    }\n    coordIndex [\n";
+  for (const auto& t : f.faces) {
+    s += "      ";
+    appendIndex(s, t[0]);
+    s += ' ';
+    appendIndex(s, t[1]);
+    s += ' ';
+    appendIndex(s, t[2]);
+    s += " -1,\n";
+  }
+  s += "    ]\n  }\n}\n";
+  return s;
+}
+
+}  // namespace
+
+void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file) {
+  const auto fmt = formatFromPath(file);
+  if (!fmt || (*fmt != Format::Obj && *fmt != Format::Ply && *fmt != Format::Vrml))
+    throw IoError(file.string() + ": cannot export '" + file.extension().string() + "' (use .obj, .ply or .wrl)");
+  const Flat flat = flatten(m);
+  const std::string text = *fmt == Format::Obj ? toObj(flat) : *fmt == Format::Ply ? toPly(flat) : toVrml(flat);
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  if (!out) throw IoError(file.string() + ": cannot open for writing");
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  out.close();
+  if (!out) throw IoError(file.string() + ": write failed");
+}
+
+}  // namespace ld::io
