@@ -117,18 +117,28 @@ SegTriResult intersectSegmentTriangle(const Vector3d& a, const Vector3d& b, cons
 
   if ((h0 > eps && h1 > eps) || (h0 < -eps && h1 < -eps)) return r;
 
-  double t = h0 / (h0 - h1);  // h0 != h1 here: one end is farther than eps from the plane
-  t = std::clamp(t, 0.0, 1.0);
+  // The line's crossing with the plane; when it falls off the triangle or off the
+  // segment, an end lying on the plane (within eps) may still touch the triangle.
+  const double tc = h0 / (h0 - h1);  // h0 != h1: one end is farther than eps from the plane
+  double t = 0.0;
+  if (tc >= 0.0 && tc <= 1.0) {
+    t = tc;
+    classifyPoint(fr, a + tc * d, eps, r);
+  }
+  if (r.kind == HitKind::None && on0) {
+    t = 0.0;
+    classifyPoint(fr, a, eps, r);
+  }
+  if (r.kind == HitKind::None && on1) {
+    t = 1.0;
+    classifyPoint(fr, b, eps, r);
+  }
+  if (r.kind == HitKind::None) return r;
   if (on0) {
     r.endTouch = EndTouch::Start;
   } else if (on1) {
     r.endTouch = EndTouch::End;
   }
-  const Vector3d q = r.endTouch == EndTouch::Start ? a : (r.endTouch == EndTouch::End ? b : Vector3d(a + t * d));
-  if (r.endTouch == EndTouch::Start) t = 0.0;
-  if (r.endTouch == EndTouch::End) t = 1.0;
-  classifyPoint(fr, q, eps, r);
-  if (r.kind == HitKind::None) return r;
   r.t = r.tExit = t;
   r.direction = h0 > h1 ? 1 : -1;
   return r;
