@@ -1,0 +1,206 @@
+#include "sim/collision/bvh.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "tests/sim/collision/test_meshes.h"
+#include "tests/support/test_support.h"
+
+namespace ld::collision {
+namespace {
+
+using Eigen::Vector3d;
+using mesh::Face;
+using mesh::SurfaceMesh;
+using ld::test::near;
+using ld::test::nearVec;
+
+::testing::AssertionResult sameHits(const std::vector<SurfaceHit>& x, const std::vector<SurfaceHit>& y) {
+  if (x.size() != y.size())
+    return ::testing::AssertionFailure() << "bvh gives " << x.size() << " hits, brute force " << y.size();
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (x[i].face != y[i].face || x[i].kind != y[i].kind || x[i].t != y[i].t || x[i].edge != y[i].edge ||
+        x[i].vertex != y[i].vertex)
+      return ::testing::AssertionFailure()
+             << "hit " << i << " differs: face " << x[i].face << " vs " << y[i].face << ", kind " << int(x[i].kind)
+             << " vs " << int(y[i].kind) << ", t " << x[i].t << " vs " << y[i].t;
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// Random segments: generic ones across the bounds, and ones through vertices and
+// edge midpoints (exact boundary hits), some very short.
+struct SegmentSource {
+  std::mt19937_64 rng;
+  explicit SegmentSource(std::uint64_t seed) : rng(seed) {}
+  std::pair<Vector3d, Vector3d> next(const SurfaceMesh& m) {
+    const auto bb = m.bounds();
+    const Vector3d lo = bb.min - 0.2 * bb.extent() - Vector3d::Constant(0.1);
+    const Vector3d hi = bb.max + 0.2 * bb.extent() + Vector3d::Constant(0.1);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    auto rnd = [&] { return Vector3d(lo + (hi - lo).cwiseProduct(Vector3d(U(rng), U(rng), U(rng)))); };
+    const int kind = static_cast<int>(rng() % 4);
+    if (kind == 0) return {rnd(), rnd()};
+    // Through a feature of a random live face.
+    Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+    while (!m.isValid(f)) f = Face(static_cast<std::uint32_t>(rng() % m.facesSize()));
+    const auto& vs = m.vertices(f);
+    Vector3d p = m.position(vs[rng() % 3]);
+    if (kind == 2) p = 0.5 * (m.position(vs[0]) + m.position(vs[1]));
+    if (kind == 3) p = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
+    const Vector3d d = (rnd() - p).normalized() * (0.01 + 2.0 * U(rng)) * bb.extent().norm();
+    return {p + d, p - U(rng) * d};
+  }
+};
+
+void expectBvhMatchesBruteForce(const SurfaceMesh& m, const TriangleBvh& bvh, SegmentSource& src, int n) {
+  for (int i = 0; i < n; ++i) {
+    const auto [a, b] = src.next(m);
+    const auto brute = intersectSegment(m, a, b);
+    ASSERT_TRUE(sameHits(bvh.intersectSegment(m, a, b), brute))
+        << "segment " << a.transpose() << " -> " << b.transpose();
+  }
+}
+
+TEST(TriangleBvh, BuildTracksEveryFaceOnce) {
+  const SurfaceMesh m = testing::icosphere(3);
+  const TriangleBvh bvh(m);
+  EXPECT_EQ(bvh.check(m), "");
+  const auto s = bvh.stats();
+  EXPECT_EQ(s.faces, m.nFaces());
+  EXPECT_LE(s.maxDepth, 12u);  // 1280 faces, leaves of <= 4: a balanced tree
+  EXPECT_TRUE(nearVec(bvh.bounds().max, Vector3d(1, 1, 1), 1e-12));
+}
+
+TEST(TriangleBvh, QueriesEqualBruteForceOnSeveralMeshes) {
+  SegmentSource src(7);
+  for (const SurfaceMesh& m : {testing::icosphere(3), testing::slab(12, 1.0, 3.0), testing::grid(20, 0.5)}) {
+    const TriangleBvh bvh(m);
+    expectBvhMatchesBruteForce(m, bvh, src, 1500);
+  }
+}
+
+TEST(TriangleBvh, ThroughASlabFindsTopAndBottom) {
+  const SurfaceMesh m = testing::slab(8, 1.0, 2.0);
+  const TriangleBvh bvh(m);
+  const auto hits = bvh.intersectSegment(m, Vector3d(2.3, 4.6, 5), Vector3d(2.3, 4.6, -5));
+  ASSERT_EQ(hits.size(), 2u);
+  EXPECT_TRUE(near(hits[0].point.z(), 0.0, 1e-12));
+  EXPECT_EQ(hits[0].direction, 1);  // into the top (outward normal +z)
+  EXPECT_TRUE(near(hits[1].point.z(), -2.0, 1e-12));
+  EXPECT_EQ(hits[1].direction, -1);  // out through the bottom (outward normal -z)
+}
+
+TEST(TriangleBvh, RefitFollowsMovingVertices) {
+  SurfaceMesh m = testing::grid(10);
+  TriangleBvh bvh(m);
+  for (mesh::Vertex v : m.vertices()) m.position(v).z() += 5.0;                                // the sheet moves up
+  EXPECT_TRUE(bvh.intersectSegment(m, Vector3d(3.3, 3.3, 6), Vector3d(3.3, 3.3, 4)).empty());  // stale boxes
+  bvh.refit(m);
+  EXPECT_EQ(bvh.check(m), "");
+  ASSERT_EQ(bvh.intersectSegment(m, Vector3d(3.3, 3.3, 6), Vector3d(3.3, 3.3, 4)).size(), 1u);
+  // Local refit: only one vertex moves.
+  const mesh::Vertex v(static_cast<std::uint32_t>(5 * 11 + 5));
+  m.position(v).z() += 3.0;
+  const std::vector<mesh::Vertex> moved = {v};
+  bvh.refitVertices(m, moved);
+  EXPECT_EQ(bvh.check(m), "");
+  const auto hits = bvh.intersectSegment(m, Vector3d(5, 5, 9), Vector3d(5, 5, 7));
+  ASSERT_EQ(hits.size(), 1u);
+  EXPECT_EQ(hits[0].kind, HitKind::OnVertex);
+  EXPECT_EQ(hits[0].vertex, v);
+}
+
+// The property test: random local edits (split edge, split face, delete face, move
+// vertices), the mesh validated and the tree synced after each, queries compared
+// with brute force throughout.
+TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
+  std::mt19937_64 rng(99);
+  SegmentSource src(11);
+  std::uniform_real_distribution<double> U(0.05, 0.95);
+  for (int meshKind = 0; meshKind < 3; ++meshKind) {
+    SurfaceMesh m =
+        meshKind == 0 ? testing::icosphere(2) : (meshKind == 1 ? testing::slab(6, 1.0, 2.0) : testing::grid(8));
+    TriangleBvh bvh(m);
+    int local = 0, rebuilt = 0;
+    for (int step = 0; step < 300; ++step) {
+      const int op = static_cast<int>(rng() % 10);
+      if (op < 4) {  // split an edge
+        mesh::Edge e(static_cast<std::uint32_t>(rng() % m.edgesSize()));
+        if (!m.isValid(e)) continue;
+        const double s = U(rng);
+        m.splitEdge(e, (1 - s) * m.position(m.vertex(e, 0)) + s * m.position(m.vertex(e, 1)));
+      } else if (op < 8) {  // split a face
+        Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+        if (!m.isValid(f)) continue;
+        double u = U(rng), v = U(rng);
+        if (u + v > 1) u = 1 - u, v = 1 - v;
+        const auto& vs = m.vertices(f);
+        const Vector3d p = m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
+                           v * (m.position(vs[2]) - m.position(vs[0]));
+        m.splitFace(f, p);
+      } else if (op == 8 && meshKind == 2) {  // delete a face (open mesh only: keep the others closed)
+        Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+        if (!m.isValid(f)) continue;
+        m.deleteFace(f);
+      } else {  // move a few vertices
+        std::vector<mesh::Vertex> moved;
+        std::normal_distribution<double> N(0.0, 0.05);
+        for (int k = 0; k < 5; ++k) {
+          mesh::Vertex v(static_cast<std::uint32_t>(rng() % m.verticesSize()));
+          if (!m.isValid(v)) continue;
+          m.position(v) += Vector3d(N(rng), N(rng), N(rng));
+          moved.push_back(v);
+        }
+        bvh.refitVertices(m, moved);
+      }
+      ASSERT_TRUE(m.validate().ok()) << m.validate().message();
+      const SyncResult r = bvh.sync(m);
+      local += r == SyncResult::Local;
+      rebuilt += r == SyncResult::Rebuilt;
+      ASSERT_EQ(bvh.check(m), "") << "step " << step;
+      if (step % 10 == 0) expectBvhMatchesBruteForce(m, bvh, src, 40);
+    }
+    expectBvhMatchesBruteForce(m, bvh, src, 300);
+    EXPECT_GT(local, 100) << "edits should be absorbed locally";
+    // Compaction renumbers faces: the tree notices and rebuilds.
+    if (m.hasGarbage()) {
+      m.garbageCollection();
+      EXPECT_EQ(bvh.sync(m), SyncResult::Rebuilt);
+      EXPECT_EQ(bvh.check(m), "");
+      expectBvhMatchesBruteForce(m, bvh, src, 100);
+    }
+  }
+}
+
+TEST(TriangleBvh, LocalInsertionSplitsLeavesAndKeepsDepthBounded) {
+  SurfaceMesh m = testing::grid(4);
+  TriangleBvh bvh(m);
+  // Hammer one face with splits: all new faces land in the same neighbourhood.
+  std::mt19937_64 rng(3);
+  Face f(0);
+  for (int i = 0; i < 2000; ++i) {
+    const auto& vs = m.vertices(f);
+    const Vector3d p = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
+    m.splitFace(f, p);
+    f = Face(static_cast<std::uint32_t>(m.facesSize() - 1 - rng() % 3));
+    bvh.sync(m);
+  }
+  EXPECT_EQ(bvh.check(m), "");
+  EXPECT_LE(bvh.stats().maxDepth, TriangleBvh::kMaxDepth);
+  SegmentSource src(5);
+  expectBvhMatchesBruteForce(m, bvh, src, 300);
+}
+
+TEST(TriangleBvh, MisuseThrows) {
+  const SurfaceMesh m = testing::grid(3);
+  TriangleBvh bvh;
+  EXPECT_THROW(bvh.refit(m), CollisionError);
+  bvh.build(m);
+  SurfaceMesh other = testing::grid(1);
+  EXPECT_THROW(bvh.intersectSegment(other, Vector3d(0, 0, 1), Vector3d(0, 0, -1)), CollisionError);
+}
+
+}  // namespace
+}  // namespace ld::collision
