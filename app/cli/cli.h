@@ -25,7 +25,7 @@ class CliError : public std::runtime_error {
 };
 
 struct Args {
-  std::vector<std::string> positional;        // words that are not options
+  std::vector<std::string> positional;         // words that are not options
   std::map<std::string, std::string> options;  // --name value (name without dashes)
 
   // Every "--name" takes the next word as its value.
