@@ -1,10 +1,12 @@
 // lapdissect: the desktop program.
-//   lapdissect [--model FILE] [--db URL] [--screenshot OUT.png [--size WxH] [--wireframe]]
+//   lapdissect [--model FILE] [--db URL] [--wireframe]
+//              [--screenshot OUT.png [--size WxH] [--whole-window]]
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
 #include <QApplication>
 #include <QCommandLineParser>
 #include <QImage>
+#include <QPixmap>
 #include <QRegularExpression>
 #include <QSurfaceFormat>
 #include <QTimer>
@@ -49,11 +51,14 @@ int main(int argc, char** argv) {
   const QCommandLineOption sizeOpt(QStringLiteral("size"),
                                    QStringLiteral("View size for --screenshot (default 1280x800)."),
                                    QStringLiteral("WxH"), QStringLiteral("1280x800"));
+  const QCommandLineOption windowOpt(
+      QStringLiteral("whole-window"),
+      QStringLiteral("With --screenshot: capture the whole window (menus, status bar), not just the view."));
   const QCommandLineOption wireOpt(QStringLiteral("wireframe"), QStringLiteral("Start with the wireframe overlay on."));
   const QCommandLineOption dbOpt(QStringLiteral("db"),
                                  QStringLiteral("Trainee store URL (sqlite:PATH or postgresql://...)."),
                                  QStringLiteral("URL"));
-  parser.addOptions({modelOpt, shotOpt, sizeOpt, wireOpt, dbOpt});
+  parser.addOptions({modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt});
   if (!parser.parse(QApplication::arguments())) {
     printError(parser.errorText());
     return kBadInput;
@@ -96,7 +101,7 @@ int main(int argc, char** argv) {
     const QString out = parser.value(shotOpt);
     int rc = 0;
     QTimer::singleShot(0, &window, [&] {
-      const QImage image = window.view()->grabFramebuffer();
+      const QImage image = parser.isSet(windowOpt) ? window.grab().toImage() : window.view()->grabFramebuffer();
       if (image.isNull() || !image.save(out, "PNG")) {
         printError(QStringLiteral("%1:0: cannot write the screenshot").arg(out));
         rc = 1;

@@ -16,13 +16,6 @@ namespace {
 
 using ld::models::TriMesh;
 
-struct Model {
-  std::string name;
-  std::string description;
-  std::function<TriMesh()> make;
-  bool vrml = false;
-};
-
 bool writeFile(const std::filesystem::path& p, const std::function<void(std::ostream&)>& body) {
   std::ofstream out(p, std::ios::binary);
   if (!out) return false;
@@ -44,15 +37,7 @@ int main(int argc, char** argv) {
     std::cerr << outDir.string() << ":0: cannot create folder: " << ec.message() << "\n";
     return 1;
   }
-  const std::vector<Model> models = {
-      {"tissue_slab", "tissue slab 80 x 60 x 5 mm, top face at z = +2.5",
-       [] { return ld::models::makeSlab(80.0, 60.0, 5.0, 54, 40, 4); }, true},
-      {"disc", "thin disc, radius 25 mm, 2 mm thick, axis z", [] { return ld::models::makeDisc(25.0, 2.0, 17, 1); },
-       false},
-      {"cylinder", "cylinder, radius 10 mm, 40 mm long, axis z",
-       [] { return ld::models::makeCylinder(10.0, 40.0, 7, 27); }, false},
-      {"organ", "organ-like closed blob about 100 x 70 x 40 mm", [] { return ld::models::makeOrgan(22, 10); }, false},
-  };
+  const auto models = ld::models::defaultModels();
   int failures = 0;
   for (const auto& m : models) {
     const TriMesh mesh = m.make();

@@ -399,6 +399,16 @@ std::string pointText(const Vec3& p) { return num(p[0]) + " " + num(p[1]) + " " 
 
 }  // namespace
 
+std::vector<ModelSpec> defaultModels() {
+  return {
+      {"tissue_slab", "tissue slab 80 x 60 x 5 mm, top face at z = +2.5",
+       [] { return makeSlab(80.0, 60.0, 5.0, 54, 40, 4); }, true},
+      {"disc", "thin disc, radius 25 mm, 2 mm thick, axis z", [] { return makeDisc(25.0, 2.0, 17, 1); }, false},
+      {"cylinder", "cylinder, radius 10 mm, 40 mm long, axis z", [] { return makeCylinder(10.0, 40.0, 7, 27); }, false},
+      {"organ", "organ-like closed blob about 100 x 70 x 40 mm", [] { return makeOrgan(22, 10); }, false},
+  };
+}
+
 void writeObj(const TriMesh& m, std::ostream& out, const std::string& comment) {
   out << "# " << comment << "\n# " << m.points.size() << " vertices, " << m.triangles.size() << " triangles\n";
   for (const auto& p : m.points) out << "v " << pointText(p) << '\n';

@@ -4,6 +4,7 @@
 // builds without the rest of the project.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -47,6 +48,16 @@ struct MeshCheck {
   std::string problem;  // first problem found, empty if none
 };
 MeshCheck check(const TriMesh& m);
+
+// The bundled models: resources/models/<name>.obj, and <name>_v1.wrl / <name>_v2.wrl
+// when `vrml`.
+struct ModelSpec {
+  std::string name;
+  std::string description;
+  std::function<TriMesh()> make;
+  bool vrml = false;
+};
+std::vector<ModelSpec> defaultModels();
 
 void writeObj(const TriMesh& m, std::ostream& out, const std::string& comment);
 void writeVrml1(const TriMesh& m, std::ostream& out, const std::string& comment);

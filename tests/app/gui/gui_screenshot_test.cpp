@@ -1,0 +1,163 @@
+// Runs `lapdissect --model FILE --screenshot OUT.png` and checks the picture: the right
+// size, not blank, tissue-coloured (pink/red) pixels in the middle, background at the
+// corners. Needs an X display (ctest runs under xvfb-run); skips without DISPLAY.
+#include <QColor>
+#include <QImage>
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include <unistd.h>
+
+#include "tests/support/run_command.h"
+#include "tests/support/test_support.h"
+
+namespace {
+
+using ld::test::runCommand;
+using ld::test::shellQuote;
+
+#define LD_REQUIRE_DISPLAY()                                                              \
+  if (!std::getenv("DISPLAY") || !*std::getenv("DISPLAY"))                                \
+  GTEST_SKIP() << "no X display (DISPLAY unset): run the GUI tests under xvfb-run, e.g. " \
+                  "xvfb-run -a -s \"-screen 0 1920x1080x24\" ctest -L gui"
+
+std::filesystem::path tempPng(const std::string& name) {
+  return std::filesystem::temp_directory_path() / ("ld_shot_" + std::to_string(::getpid()) + "_" + name + ".png");
+}
+
+bool isTissue(QRgb p) {
+  const int r = qRed(p), g = qGreen(p), b = qBlue(p);
+  return r > 90 && r > g + 35 && r > b + 30;
+}
+
+struct Shot {
+  ld::test::CommandResult run;
+  QImage image;
+};
+
+Shot screenshot(const std::filesystem::path& model, const std::string& name, const std::string& extra = "") {
+  const auto out = tempPng(name);
+  std::filesystem::remove(out);
+  Shot s;
+  s.run = runCommand(shellQuote(LD_GUI_BIN) + " --model " + shellQuote(model.string()) + " --screenshot " +
+                     shellQuote(out.string()) + " --size 640x400 " + extra);
+  s.image = QImage(QString::fromStdString(out.string()));
+  std::filesystem::remove(out);
+  return s;
+}
+
+// Fraction of tissue pixels in the central box of `frac` of the width and height.
+double tissueFractionInMiddle(const QImage& img, double frac) {
+  const int w = img.width(), h = img.height();
+  const int x0 = static_cast<int>(w * (0.5 - frac / 2)), x1 = static_cast<int>(w * (0.5 + frac / 2));
+  const int y0 = static_cast<int>(h * (0.5 - frac / 2)), y1 = static_cast<int>(h * (0.5 + frac / 2));
+  int tissue = 0, all = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x, ++all) tissue += isTissue(img.pixel(x, y)) ? 1 : 0;
+  return all ? static_cast<double>(tissue) / all : 0.0;
+}
+
+void expectShowsTissue(const Shot& s, double minMiddleFraction) {
+  ASSERT_EQ(s.run.exitCode, 0) << s.run.err;
+  ASSERT_FALSE(s.image.isNull()) << "no PNG written";
+  EXPECT_EQ(s.image.width(), 640);
+  EXPECT_EQ(s.image.height(), 400);
+  // Not blank: many distinct colours (shading), and not one colour everywhere.
+  std::set<QRgb> colours;
+  for (int y = 0; y < s.image.height(); y += 4)
+    for (int x = 0; x < s.image.width(); x += 4) colours.insert(s.image.pixel(x, y));
+  EXPECT_GT(colours.size(), 50u) << "the picture looks blank or flat";
+  EXPECT_GE(tissueFractionInMiddle(s.image, 0.2), minMiddleFraction) << "no tissue in the middle of the picture";
+  // The model is fitted and centred: the corners show the background.
+  for (const auto& [x, y] : {std::pair{2, 2}, {637, 2}, {2, 397}, {637, 397}})
+    EXPECT_FALSE(isTissue(s.image.pixel(x, y))) << "corner " << x << "," << y;
+}
+
+TEST(GuiScreenshot, DefaultTissueSlab) {
+  LD_REQUIRE_DISPLAY();
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "slab");
+  expectShowsTissue(s, 0.95);
+  // The slab is lit: its top face is not one flat colour (Phong shading with a
+  // positional light gives a gradient).
+  const QColor a = s.image.pixelColor(200, 200), b = s.image.pixelColor(440, 200);
+  EXPECT_NE(a.rgb(), b.rgb());
+}
+
+TEST(GuiScreenshot, WireframeOverlayDrawsEdges) {
+  LD_REQUIRE_DISPLAY();
+  const auto slab = ld::test::resourcesDir() / "models" / "tissue_slab.obj";
+  const Shot solid = screenshot(slab, "solid");
+  const Shot wire = screenshot(slab, "wire", "--wireframe");
+  ASSERT_EQ(wire.run.exitCode, 0) << wire.run.err;
+  ASSERT_FALSE(wire.image.isNull());
+  // Dark edge lines replace some tissue pixels in the middle.
+  const double fs = tissueFractionInMiddle(solid.image, 0.2), fw = tissueFractionInMiddle(wire.image, 0.2);
+  EXPECT_LT(fw, fs - 0.1) << "solid " << fs << " wireframe " << fw;
+  EXPECT_GT(fw, 0.2) << "the surface is still drawn under the wireframe";
+}
+
+TEST(GuiScreenshot, OrganModel) {
+  LD_REQUIRE_DISPLAY();
+  expectShowsTissue(screenshot(ld::test::resourcesDir() / "models" / "organ.obj", "organ"), 0.95);
+}
+
+TEST(GuiScreenshot, SharedSofaLiver) {
+  LD_REQUIRE_DISPLAY();
+  LD_REQUIRE_SHARED_DATA(liver, "meshes/sofa_liver.obj");
+  // An irregular organ: some tissue in the middle is enough.
+  expectShowsTissue(screenshot(liver, "liver"), 0.5);
+}
+
+#ifdef LD_GUI_HAVE_SIM_IO
+TEST(GuiScreenshot, VrmlThroughTheImporters) {
+  LD_REQUIRE_DISPLAY();
+  expectShowsTissue(screenshot(ld::test::resourcesDir() / "models" / "tissue_slab_v2.wrl", "vrml"), 0.95);
+}
+
+TEST(GuiScreenshot, OpenMeshWithTwoSidedLighting) {
+  LD_REQUIRE_DISPLAY();
+  LD_REQUIRE_SHARED_DATA(hull, "meshes/lapgym_glt_liver_collision.stl");
+  const Shot s = screenshot(hull, "hull");
+  ASSERT_EQ(s.run.exitCode, 0) << s.run.err;
+  ASSERT_FALSE(s.image.isNull());
+}
+#endif
+
+TEST(GuiScreenshot, BadModelExitsWithTwoAndAPlace) {
+  LD_REQUIRE_DISPLAY();
+  const auto bad = std::filesystem::temp_directory_path() / ("ld_bad_" + std::to_string(::getpid()) + ".obj");
+  { std::ofstream(bad) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"; }
+  const Shot s = screenshot(bad, "bad");
+  std::filesystem::remove(bad);
+  EXPECT_EQ(s.run.exitCode, 2) << s.run.err;
+  EXPECT_NE(s.run.err.find(bad.string() + ":"), std::string::npos) << s.run.err;
+  EXPECT_TRUE(s.image.isNull()) << "no picture for a bad model";
+
+  const Shot missing = screenshot("/nonexistent/model.obj", "missing");
+  EXPECT_EQ(missing.run.exitCode, 2);
+  EXPECT_NE(missing.run.err.find("/nonexistent/model.obj:"), std::string::npos) << missing.run.err;
+}
+
+TEST(GuiScreenshot, BadOptionsExitWithTwo) {
+  LD_REQUIRE_DISPLAY();
+  const auto r = runCommand(shellQuote(LD_GUI_BIN) + " --screenshot /tmp/x.png --size 10xfoo");
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+  EXPECT_NE(r.err.find("--size"), std::string::npos) << r.err;
+  const auto u = runCommand(shellQuote(LD_GUI_BIN) + " --no-such-option");
+  EXPECT_EQ(u.exitCode, 2) << u.err;
+}
+
+TEST(GuiScreenshot, DatabaseUrlDoesNotStopAFirstStart) {
+  LD_REQUIRE_DISPLAY();
+  const auto dir = std::filesystem::temp_directory_path() / ("ld_nodb_" + std::to_string(::getpid()));
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "disc.obj", "db",
+                            "--db " + shellQuote("sqlite:" + (dir / "store.sqlite").string()));
+  expectShowsTissue(s, 0.95);
+}
+
+}  // namespace
