@@ -129,6 +129,7 @@ void ensureCache(State& s) {
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb}) buf->assign(n, Vec3::Zero());
   c.topologyVersion = m.topologyVersion();
   ++c.rebuilds;
+  s.energyBudget = std::numeric_limits<double>::quiet_NaN();  // cuts change the energy
 }
 
 View makeView(const Params& p, const State& s) {
@@ -182,20 +183,40 @@ double totalForces(const View& w, const Vec3* x, const Vec3* v, Vec3* f) {
   return pe;
 }
 
+// Spring and home energy at x (no forces).
+double potential(const View& w, const Vec3* x) {
+  double pe = 0.0;
+  for (std::size_t s = 0; s < w.nSprings; ++s) {
+    const Spring& sp = w.springs[s];
+    const double stretch = (x[sp.j] - x[sp.i]).norm() - sp.rest;
+    pe += 0.5 * sp.k * stretch * stretch;
+  }
+  for (std::size_t i = 0; i < w.n; ++i)
+    if (w.invMass[i] != 0.0) pe += 0.5 * w.homeK * (x[i] - w.home[i]).squaredNorm();
+  return pe;
+}
+
 double kinetic(const View& w, const Vec3* v) {
   double ke = 0.0;
   for (std::size_t i = 0; i < w.n; ++i) ke += 0.5 * w.mass[i] * v[i].squaredNorm();
   return ke;
 }
 
+// Energy of the state a step starts from.
+struct E0 {
+  double pe = 0, ke = 0;
+};
+
 struct Check {
   bool ok = true;
   const char* reason = "";
+  double energy = 0.0;  // estimate after the step
+  double work = 0.0;    // external work of the step (positive part)
 };
 
-// The monitor's test of a proposed step (x0, v0) → (x1, v1), given the energy e0 of
-// the state before it.
-Check checkStep(const StabilityOptions& o, const View& w, const Vec3* x0, const Vec3* x1, const Vec3* v1, double e0) {
+// The monitor's test of a proposed step (x0, v0) → (x1, v1) against the budget.
+Check checkStep(const StabilityOptions& o, const View& w, const Vec3* x0, const Vec3* x1, const Vec3* v1, E0 e0,
+                double budget) {
   double ke = 0.0, work = 0.0, vmax2 = 0.0;
   bool finite = true;
   for (std::size_t i = 0; i < w.n; ++i) {
@@ -205,25 +226,38 @@ Check checkStep(const StabilityOptions& o, const View& w, const Vec3* x0, const 
     vmax2 = std::max(vmax2, v2);
     work += (w.ext[i] + w.mass[i] * w.g).dot(x1[i] - x0[i]);
   }
-  if (!finite || !std::isfinite(ke)) return {false, "non-finite"};
-  if (!o.enabled) return {};
-  if (vmax2 > o.maxSpeed * o.maxSpeed) return {false, "speed"};
-  if (ke > (1.0 + o.energyJump) * e0 + std::max(work, 0.0) + o.absoluteSlack) return {false, "energy jump"};
-  return {};
+  Check r;
+  r.work = std::max(work, 0.0);
+  if (!finite || !std::isfinite(ke)) return {false, "non-finite", 0, 0};
+  if (!o.enabled) return r;
+  r.energy = ke + potential(w, x1);
+  if (vmax2 > o.maxSpeed * o.maxSpeed) return {false, "speed", 0, 0};
+  const double ref = std::isfinite(budget) ? budget : e0.pe + e0.ke;
+  if (r.energy > (1.0 + o.energyJump) * ref + r.work + o.absoluteSlack) return {false, "energy jump", 0, 0};
+  return r;
+}
+
+// The budget after an accepted step (the monitor was on, so c.energy is set): raised by external work, relaxing toward
+// the current energy from above, never following an energy rise.
+double nextBudget(const StabilityOptions& o, double budget, const Check& c, E0 e0, double dt) {
+  if (!o.enabled) return budget;
+  double b = (std::isfinite(budget) ? budget : e0.pe + e0.ke) + c.work;
+  if (c.energy < b) b = c.energy + (b - c.energy) * std::exp(-dt / o.budgetRelax);
+  return b;
 }
 
 // ---- integrators: (x0, v0) → (x1, v1); return the energy at (x0, v0) ------------
 
-double explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+E0 explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
   const double pe = totalForces(w, x0, v0, c.f.data());
   for (std::size_t i = 0; i < w.n; ++i) {
     x1[i] = x0[i] + dt * v0[i];
     v1[i] = v0[i] + (dt * w.invMass[i]) * c.f[i];
   }
-  return pe + kinetic(w, v0);
+  return {pe, kinetic(w, v0)};
 }
 
-double symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+E0 symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
   Vec3* f = c.f.data();
   for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
   double pe = springForces(w, x0, f);
@@ -243,12 +277,11 @@ double symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, 
     v1[i] = damp * v0[i] + dt * a;
     x1[i] = x0[i] + dt * v1[i];
   }
-  return pe + ke;
+  return {pe, ke};
 }
 
-double verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
-  const double pe = totalForces(w, x0, v0, c.f.data());
-  const double e0 = pe + kinetic(w, v0);
+E0 verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+  const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
   for (std::size_t i = 0; i < w.n; ++i) {
     v1[i] = v0[i] + (0.5 * dt * w.invMass[i]) * c.f[i];  // half kick (v1 holds v_half)
     x1[i] = x0[i] + dt * v1[i];
@@ -260,7 +293,7 @@ double verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1,
   return e0;
 }
 
-double rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+E0 rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
   const std::size_t n = w.n;
   for (auto* b : {&c.k1x, &c.k1v, &c.k2x, &c.k2v, &c.k3x, &c.k3v, &c.k4x, &c.k4v, &c.xt, &c.vt}) b->resize(n);
   auto deriv = [&](const Vec3* x, const Vec3* v, std::vector<Vec3>& kx, std::vector<Vec3>& kv) {
@@ -271,7 +304,7 @@ double rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Ve
     }
     return pe;
   };
-  const double e0 = deriv(x0, v0, c.k1x, c.k1v) + kinetic(w, v0);
+  const E0 e0{deriv(x0, v0, c.k1x, c.k1v), kinetic(w, v0)};
   for (std::size_t i = 0; i < n; ++i) {
     c.xt[i] = x0[i] + 0.5 * dt * c.k1x[i];
     c.vt[i] = v0[i] + 0.5 * dt * c.k1v[i];
@@ -295,11 +328,10 @@ double rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Ve
 }
 
 // (M(1 + dt·c) − dt²·J) Δv = dt·(f0 + dt·J·v0);  v1 = v0 + Δv;  x1 = x0 + dt·v1.
-double implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
-                     double dt) {
+E0 implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
+                 double dt) {
   const std::size_t n = w.n;
-  const double pe = totalForces(w, x0, v0, c.f.data());
-  const double e0 = pe + kinetic(w, v0);
+  const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
   using Trip = Eigen::Triplet<double>;
   std::vector<Trip> trips;
   trips.reserve(n * 3 + w.nSprings * 36);
@@ -358,8 +390,8 @@ double implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, c
   return e0;
 }
 
-double integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
-                 double dt) {
+E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
+             double dt) {
   switch (m) {
     case Method::ExplicitEuler:
       return explicitEuler(w, c, x0, v0, x1, v1, dt);
@@ -372,26 +404,33 @@ double integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3*
     case Method::ImplicitEuler:
       return implicitEuler(p, w, c, x0, v0, x1, v1, dt);
   }
-  return 0.0;
+  return {};
 }
 
 std::vector<Vec3>& velocities(State& s) { return requireV<Vec3>(s.mesh, kVelocityProp).vector(); }
 
-// Runs `substeps` monitored substeps of m from the state into (xb, vb).
-bool attemptSubsteps(Method m, const Params& p, const View& w, State& s, double dt, int substeps) {
+// Runs `substeps` monitored substeps of m from the state into (xb, vb); on success
+// updates *budget.
+bool attemptSubsteps(Method m, const Params& p, const View& w, State& s, double dt, int substeps, double* budget,
+                     const char** reason) {
   Cache& c = s.cache;
-  const auto& x = s.mesh.positions();
-  const auto& v = velocities(s);
   const double h = dt / substeps;
-  std::vector<Vec3> xs(x), vs(v);  // start copy; retries are rare
+  std::vector<Vec3> xs(s.mesh.positions()), vs(velocities(s));  // start copy; retries are rare
+  double b = *budget;
   for (int k = 0; k < substeps; ++k) {
-    const double e0 = integrate(m, p, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h);
-    if (!checkStep(p.stability, w, xs.data(), c.xb.data(), c.vb.data(), e0).ok) return false;
+    const E0 e0 = integrate(m, p, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h);
+    const Check chk = checkStep(p.stability, w, xs.data(), c.xb.data(), c.vb.data(), e0, b);
+    if (!chk.ok) {
+      *reason = chk.reason;
+      return false;
+    }
+    b = nextBudget(p.stability, b, chk, e0, h);
     if (k + 1 < substeps) {
       xs = c.xb;
       vs = c.vb;
     }
   }
+  *budget = b;
   return true;
 }
 
@@ -447,27 +486,30 @@ StepInfo step(const Params& params, State& state, double dt) {
   info.activeVertices = state.mesh.nVertices();
   const Method m = params.method;
   const int sticky = state.stickyLeft > 0 ? state.stickySubsteps : 1;
+  double budget = state.energyBudget;
+  const char* reason = "";
   bool ok = false;
   if (sticky == 1) {
-    const double e0 = integrate(m, params, w, c, state.mesh.positions().data(), velocities(state).data(), c.xb.data(),
-                                c.vb.data(), dt);
-    const Check chk = checkStep(params.stability, w, state.mesh.positions().data(), c.xb.data(), c.vb.data(), e0);
+    const E0 e0 = integrate(m, params, w, c, state.mesh.positions().data(), velocities(state).data(), c.xb.data(),
+                            c.vb.data(), dt);
+    const Check chk =
+        checkStep(params.stability, w, state.mesh.positions().data(), c.xb.data(), c.vb.data(), e0, budget);
     ok = chk.ok;
-    if (!ok) {
-      ++state.stability.warnings;
-      state.stability.lastReason = chk.reason;
-    }
+    if (ok) budget = nextBudget(params.stability, budget, chk, e0, dt);
+    reason = chk.reason;
   } else {
-    ok = attemptSubsteps(m, params, w, state, dt, sticky);
+    ok = attemptSubsteps(m, params, w, state, dt, sticky, &budget, &reason);
     info.substeps = sticky;
-    if (!ok) ++state.stability.warnings;
   }
   info.accepted = ok;
+  if (!ok) {
+    ++state.stability.warnings;
+    state.stability.lastReason = reason;
+  }
   // Recovery: more substeps of the same method, then the implicit method.
-  for (int n = std::max(2, 2 * sticky); !ok && m != Method::ImplicitEuler && n <= params.stability.maxSubsteps;
-       n *= 2) {
+  for (int n = 2 * sticky; !ok && m != Method::ImplicitEuler && n <= params.stability.maxSubsteps; n *= 2) {
     ++state.stability.substepRetries;
-    ok = attemptSubsteps(m, params, w, state, dt, n);
+    ok = attemptSubsteps(m, params, w, state, dt, n, &budget, &reason);
     if (ok) {
       info.substeps = n;
       state.stickySubsteps = n;
@@ -477,9 +519,11 @@ StepInfo step(const Params& params, State& state, double dt) {
   if (!ok) {
     ++state.stability.implicitFallbacks;
     info.implicitFallback = true;
+    // Implicit Euler only dissipates; its step is checked for finiteness alone.
     Params ip = params;
-    ip.stability.enabled = false;  // implicit Euler only dissipates; only finiteness matters
-    ok = attemptSubsteps(Method::ImplicitEuler, ip, w, state, dt, 1);
+    ip.stability.enabled = false;
+    ok = attemptSubsteps(Method::ImplicitEuler, ip, w, state, dt, 1, &budget, &reason);
+    if (!ok) state.stability.lastReason = reason;
   }
   if (!ok) {
     // Last resort: keep the last good positions, stop the motion.
@@ -487,6 +531,7 @@ StepInfo step(const Params& params, State& state, double dt) {
     c.xb = state.mesh.positions();
     for (auto& u : c.vb) u.setZero();
   }
+  state.energyBudget = budget;
   if (state.stickyLeft > 0) --state.stickyLeft;
   commit(state);
   state.time += dt;

@@ -40,9 +40,14 @@ enum class Method {
 
 struct StabilityOptions {
   bool enabled = true;
-  // A step is rejected when the new kinetic energy exceeds (1 + energyJump) × the
-  // energy before the step plus the external work, or a speed exceeds maxSpeed.
+  // A step is rejected when a value is not finite, a speed exceeds maxSpeed, or the
+  // energy after it (kinetic at the new velocities + potential at the old positions,
+  // which costs no extra pass) exceeds (1 + energyJump) × the budget plus the external
+  // work of the step. The budget starts at the tissue's energy, grows only by
+  // external work, and relaxes toward the current energy with time constant
+  // budgetRelax, so a slow instability cannot creep up step by step.
   double energyJump = 0.5;
+  double budgetRelax = 0.5;     // [s]
   double absoluteSlack = 1e-9;  // [mJ] for states at rest
   double maxSpeed = 1e6;        // [mm/s]
   int maxSubsteps = 16;         // retries with 2, 4, … substeps before going implicit
@@ -54,9 +59,9 @@ struct ActiveRegionOptions {
   // A vertex is active while its net force (without damping) is above
   // forceThreshold or its speed above speedThreshold; active vertices wake their
   // neighbours; vertices with an external force are always awake (contact).
-  double forceThreshold = 0.05;  // [mN]
-  double speedThreshold = 0.05;  // [mm/s]
-  int sleepAfter = 20;           // quiet steps before a vertex sleeps
+  double forceThreshold = 0.2;  // [mN]
+  double speedThreshold = 1.0;  // [mm/s]
+  int sleepAfter = 20;          // quiet steps before a vertex sleeps
 };
 
 struct Params {
@@ -118,11 +123,17 @@ struct State {
   StabilityLog stability;
   int stickySubsteps = 1;
   int stickyLeft = 0;
+  // The monitor's energy budget [mJ]: the energy the tissue may have, raised only by
+  // external work and relaxing toward the current energy. NaN = take the next state's.
+  double energyBudget = std::numeric_limits<double>::quiet_NaN();
   detail::Cache cache;
   detail::ActiveSet active;
 
   // Call after changing masses, rest lengths or stiffnesses without a topology edit.
-  void invalidate() { cache.topologyVersion = std::numeric_limits<std::uint64_t>::max(); }
+  void invalidate() {
+    cache.topologyVersion = std::numeric_limits<std::uint64_t>::max();
+    energyBudget = std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 // Builds a state from a mesh; attaches the tissue properties when they are missing.

@@ -48,8 +48,8 @@ enum class NewVertexHome {
 
 struct TissueParams {
   double restRatio = 0.7;                             // rest length = ratio × initial length (pre-stretch)
-  double K = 40.0;                                    // mesh spring constant [mN]; k = K / rest  [mN/mm]
-  double homeK = 4.0;                                 // home spring stiffness per vertex        [mN/mm]
+  double K = 10.0;                                    // mesh spring constant [mN]; k = K / rest  [mN/mm]
+  double homeK = 10.0;                                // home spring stiffness per vertex        [mN/mm]
   double damping = 15.0;                              // velocity damping rate [1/s]: f = −damping·m·v
   double density = 5e-6;                              // areal density [kg/mm²] (≈ 1000 kg/m³ × 5 mm)
   bool uniformMass = false;                           // every vertex gets vertexMass

@@ -1,0 +1,107 @@
+#include "sim/physics/tissue_properties.h"
+
+#include <gtest/gtest.h>
+
+#include "sim/physics/physics_error.h"
+#include "sim/physics/scenes.h"
+#include "tests/support/test_support.h"
+
+namespace ld::physics {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+double totalMass(const mesh::SurfaceMesh& m) {
+  auto mass = m.getVertexProperty<double>(kMassProp);
+  double s = 0;
+  for (auto v : m.vertices()) s += mass[v];
+  return s;
+}
+
+TEST(TissueProperties, AttachSetsHomeRestStiffnessAndLumpedMass) {
+  auto m = makeGrid(2, 2, 3.0);  // 8 triangles of area 4.5
+  TissueParams p;
+  attachTissueProperties(m, p);
+  ASSERT_TRUE(hasTissueProperties(m));
+  auto home = m.getVertexProperty<Vec3>(kHomeProp);
+  auto rest = m.getEdgeProperty<double>(kRestProp);
+  auto k = m.getEdgeProperty<double>(kStiffnessProp);
+  for (auto v : m.vertices()) EXPECT_TRUE(ld::test::nearVec(home[v], m.position(v), 0.0));
+  for (auto e : m.edges()) {
+    EXPECT_TRUE(ld::test::near(rest[e], 0.7 * m.edgeLength(e), 1e-12));
+    EXPECT_TRUE(ld::test::near(k[e], p.K / rest[e], 1e-12));
+  }
+  EXPECT_TRUE(ld::test::near(totalMass(m), p.density * 36.0, 1e-15));
+  // The centre vertex touches 6 of the 8 triangles (alternating diagonals are not
+  // used by the flat grid), a corner vertex 1 or 2.
+  auto mass = m.getVertexProperty<double>(kMassProp);
+  const auto centre = nearestVertex(m, Vec3(3, 3, 0));
+  EXPECT_TRUE(ld::test::near(mass[centre], p.density * 4.5 * 6 / 3.0, 1e-15));
+}
+
+TEST(TissueProperties, UniformMassOption) {
+  auto m = makeGrid(2, 1, 1.0);
+  TissueParams p;
+  p.uniformMass = true;
+  p.vertexMass = 0.25;
+  attachTissueProperties(m, p);
+  auto mass = m.getVertexProperty<double>(kMassProp);
+  for (auto v : m.vertices()) EXPECT_EQ(mass[v], 0.25);
+}
+
+TEST(TissueProperties, SplitEdgeHooksInterpolateAndConserveMass) {
+  auto m = makeGrid(2, 2, 2.0);
+  TissueParams p;
+  attachTissueProperties(m, p);
+  const double before = totalMass(m);
+  // Deform, then split an interior edge: the new home is interpolated from the
+  // parents' homes, not taken from the deformed position.
+  for (auto v : m.vertices()) m.position(v).z() += 1.0;
+  const auto a = nearestVertex(m, Vec3(0, 2, 1)), b = nearestVertex(m, Vec3(2, 2, 1));
+  const auto e = m.findEdge(a, b);
+  ASSERT_TRUE(e.isValid());
+  const double parentRest = m.getEdgeProperty<double>(kRestProp)[e];
+  const auto v = m.splitEdge(e, 0.75 * m.position(a) + 0.25 * m.position(b));
+  ASSERT_TRUE(v.isValid());
+  ASSERT_TRUE(m.validate().ok()) << m.validate().message();
+  initVertexOnEdge(m, v, a, b, 0.25, p);
+  auto home = m.getVertexProperty<Vec3>(kHomeProp);
+  EXPECT_TRUE(ld::test::nearVec(home[v], Vec3(0.5, 2, 0), 1e-12));
+  auto rest = m.getEdgeProperty<double>(kRestProp);
+  const auto ea = m.findEdge(a, v), eb = m.findEdge(v, b);
+  EXPECT_TRUE(ld::test::near(rest[ea], 0.25 * parentRest, 1e-12));
+  EXPECT_TRUE(ld::test::near(rest[eb], 0.75 * parentRest, 1e-12));
+  EXPECT_TRUE(ld::test::near(m.getEdgeProperty<double>(kStiffnessProp)[ea], p.K / rest[ea], 1e-9));
+  EXPECT_TRUE(ld::test::near(totalMass(m), before, 1e-15));
+  EXPECT_GT(m.getVertexProperty<double>(kMassProp)[v], 0.0);
+}
+
+TEST(TissueProperties, SplitFaceAndThesisHomeRule) {
+  auto m = makeGrid(1, 1, 3.0);
+  TissueParams p;
+  attachTissueProperties(m, p);
+  const double before = totalMass(m);
+  const auto f = *m.faces().begin();
+  const auto vs = m.vertices(f);
+  const Vec3 bary(0.2, 0.3, 0.5);
+  const Vec3 at = bary[0] * m.position(vs[0]) + bary[1] * m.position(vs[1]) + bary[2] * m.position(vs[2]);
+  const Vec3 moved = at + Vec3(0, 0, 2.0);
+  const auto v = m.splitFace(f, moved);
+  ASSERT_TRUE(v.isValid());
+  TissueParams thesis = p;
+  thesis.newVertexHome = NewVertexHome::Current;
+  initVertexInFace(m, v, vs[0], vs[1], vs[2], bary, thesis);
+  EXPECT_TRUE(ld::test::nearVec(m.getVertexProperty<Vec3>(kHomeProp)[v], moved, 1e-12));
+  initVertexInFace(m, v, vs[0], vs[1], vs[2], bary, p);
+  EXPECT_TRUE(ld::test::nearVec(m.getVertexProperty<Vec3>(kHomeProp)[v], at, 1e-12));
+  EXPECT_TRUE(ld::test::near(totalMass(m), before, 1e-15));
+}
+
+TEST(TissueProperties, HooksNeedTheProperties) {
+  auto m = makeGrid(1, 1, 1.0);
+  const auto e = *m.edges().begin();
+  EXPECT_THROW(initEdge(m, e, TissueParams{}), MissingPropertyError);
+}
+
+}  // namespace
+}  // namespace ld::physics
