@@ -39,6 +39,10 @@ start)
     exit 0
   fi
   [ -n "$dir" ] || dir=$(mktemp -d /tmp/ld-pg.XXXXXX)
+  if [ -d "$dir/data" ]; then  # left over from an interrupted run
+    as_owner "$bin/pg_ctl" -D "$dir/data" -m immediate -w stop >/dev/null 2>&1 || true
+    rm -rf "$dir/data"
+  fi
   mkdir -p "$dir"
   rm -f "$dir/url" "$dir/unavailable"
   [ "$(id -u)" -eq 0 ] && chown postgres "$dir"
