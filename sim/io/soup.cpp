@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <string>
 #include <unordered_map>
 
@@ -39,7 +38,11 @@ std::vector<HalfEdge> sortedHalfEdges(const std::vector<Triangle>& tris) {
 
 class UnionFind {
  public:
-  explicit UnionFind(std::size_t n) : p_(n) { std::iota(p_.begin(), p_.end(), std::size_t{0}); }
+  // Filled by push_back: GCC 12 -O3 warns (falsely) on the zero-fill of vector(n).
+  explicit UnionFind(std::size_t n) {
+    p_.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) p_.push_back(i);
+  }
   std::size_t find(std::size_t x) {
     while (p_[x] != x) x = p_[x] = p_[p_[x]];
     return x;

@@ -96,7 +96,7 @@ RawMesh parseAscii(std::string_view d, const std::string& name) {
         poly.push_back(static_cast<std::uint32_t>(raw.points.size()));
         raw.points.push_back(p);
       }
-      if (poly.size() < 3) sc.fail("facet with " + std::to_string(poly.size()) + " vertices");
+      if (poly.size() < 3) throw ParseError(name, facetLine, "facet with " + std::to_string(poly.size()) + " vertices");
       expect("endfacet");
       raw.addPolygon(poly.data(), poly.size(), facetLine);
     } else {

@@ -437,10 +437,20 @@ class Evaluator {
     if (!ci || ci->begin == ci->end) return;
     const auto& pts = points(coordNode);
     // Faces of one coordinate node under one transform share their vertices; another
-    // transform (an instance through USE) gets its own copy.
+    // transform (an instance through USE) gets its own copy. The copy keeps the file's
+    // point order; points no face uses are dropped later.
     VertexKey key{coordNode, {}};
     std::memcpy(key.m.data(), m.data(), sizeof(double) * 16);
-    auto& remap = blocks_[key];
+    auto [blockIt, fresh] = blocks_.try_emplace(key, static_cast<std::uint32_t>(raw_.points.size()));
+    const std::uint32_t base = blockIt->second;
+    if (fresh) {
+      if (raw_.points.size() + pts.size() > kMaxEmitted) fail(ci->line, "too many points (instancing limit)");
+      for (const auto& q : pts) {
+        const Eigen::Vector3d p = (m * q.homogeneous()).head<3>();
+        if (!p.allFinite()) fail(ci->line, "transformed point is not finite");
+        raw_.points.push_back(p);
+      }
+    }
     const bool flip = clockwise != (m.topLeftCorner<3, 3>().determinant() < 0.0);
     std::vector<std::uint32_t> poly;
     long polyLine = t_[ci->begin].line;
@@ -463,14 +473,7 @@ class Evaluator {
         fail(t_[i].line,
              "coordIndex " + std::to_string(k) + " out of range (" + std::to_string(pts.size()) + " points)");
       if (poly.empty()) polyLine = t_[i].line;
-      auto [it, inserted] =
-          remap.try_emplace(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(raw_.points.size()));
-      if (inserted) {
-        const Eigen::Vector3d p = (m * pts[static_cast<std::size_t>(k)].homogeneous()).head<3>();
-        if (!p.allFinite()) fail(t_[i].line, "transformed point is not finite");
-        raw_.points.push_back(p);
-      }
-      poly.push_back(it->second);
+      poly.push_back(base + static_cast<std::uint32_t>(k));
       if (raw_.indices.size() + poly.size() > kMaxEmitted) fail(t_[i].line, "too many faces (instancing limit)");
     }
     flush();
@@ -648,7 +651,7 @@ class Evaluator {
   RawMesh raw_;
   long visits_ = 0;
   std::map<int, std::vector<Eigen::Vector3d>> pointCache_;
-  std::map<VertexKey, std::unordered_map<std::uint32_t, std::uint32_t>> blocks_;
+  std::map<VertexKey, std::uint32_t> blocks_;  // first point of each (coordinates, transform) copy
   std::set<std::string> warned_;
 };
 
