@@ -597,6 +597,7 @@ SettleResult settle(const Params& params, State& state, const SettleOptions& opt
       r.converged = true;
       break;
     }
+    if (opt.cancel && opt.cancel()) break;
   }
   for (auto& u : velocities(state)) u.setZero();
   return r;

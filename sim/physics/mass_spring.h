@@ -168,6 +168,7 @@ struct SettleOptions {
   int checkEvery = 10;           // steps between residual checks
   // progress in [0, 1] (estimated from the residual's decay) and the residual.
   std::function<void(double progress, double residual)> progress;
+  std::function<bool()> cancel;  // checked with the residual; true ends settling
 };
 struct SettleResult {
   bool converged = false;
