@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace ld::collision {
@@ -20,26 +21,30 @@ double halfArea(const Box& b) {
   return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
 }
 
-// Slab test of segment a + t d, t in [0,1], against box grown by pad.
-bool segmentHitsBox(const Vector3d& a, const Vector3d& d, const Box& b, double pad) {
-  double lo = 0.0, hi = 1.0;
-  for (int i = 0; i < 3; ++i) {
-    const double mn = b.min[i] - pad, mx = b.max[i] + pad;
-    if (d[i] == 0.0) {
-      if (a[i] < mn || a[i] > mx) return false;
-      continue;
-    }
-    const double inv = 1.0 / d[i];
-    double t0 = (mn - a[i]) * inv, t1 = (mx - a[i]) * inv;
-    if (t0 > t1) std::swap(t0, t1);
-    lo = std::max(lo, t0);
-    hi = std::min(hi, t1);
-    if (lo > hi) return false;
-  }
-  return true;
+float roundDown(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+float roundUp(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
 }
 
 }  // namespace
+
+void TriangleBvh::writeHot(std::size_t i) {
+  if (hot_.size() < nodes_.size()) hot_.resize(nodes_.size());
+  const Node& n = nodes_[i];
+  HotNode& h = hot_[i];
+  for (int k = 0; k < 3; ++k) {
+    h.lo[k] = n.box.empty() ? std::numeric_limits<float>::infinity() : roundDown(n.box.min[k]);
+    h.hi[k] = n.box.empty() ? -std::numeric_limits<float>::infinity() : roundUp(n.box.max[k]);
+  }
+  h.child[0] = n.child[0];
+  h.child[1] = n.child[1];
+}
 
 double TriangleBvh::effectivePad(const mesh::SurfaceMesh& m, const Tolerance& tol) {
   double scale = 0.0;
@@ -51,8 +56,11 @@ double TriangleBvh::effectivePad(const mesh::SurfaceMesh& m, const Tolerance& to
 
 void TriangleBvh::checkMesh(const mesh::SurfaceMesh& m, const char* where) const {
   if (!built_) throw CollisionError(std::string("TriangleBvh::") + where + ": tree not built");
-  if (m.facesSize() < faceLeaf_.size() && m.topologyVersion() == seenVersion_)
-    throw CollisionError(std::string("TriangleBvh::") + where + ": mesh has fewer faces than the tree (another mesh?)");
+  // Meshes only grow between syncs (compaction needs a sync()); fewer faces than the
+  // tree has seen means another mesh.
+  if (m.facesSize() < seenFaces_ || m.verticesSize() < seenVertices_)
+    throw CollisionError(std::string("TriangleBvh::") + where +
+                         ": mesh is smaller than the tree's (another mesh, or compacted without sync())");
 }
 
 void TriangleBvh::leafBox(const mesh::SurfaceMesh& m, Node& n) const {
@@ -81,6 +89,8 @@ void TriangleBvh::build(const mesh::SurfaceMesh& m) {
   } else {
     buildRange(m, faces.data(), faces.data() + faces.size(), centroid, -1, 0);
   }
+  hot_.assign(nodes_.size(), HotNode{});
+  for (std::size_t i = 0; i < nodes_.size(); ++i) writeHot(i);
   tracked_ = faces.size();
   pad_ = effectivePad(m, tol_);
   editsSinceBuild_ = 0;
@@ -145,6 +155,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
       n.box = nodes_[static_cast<std::size_t>(n.child[0])].box;
       n.box.extend(nodes_[static_cast<std::size_t>(n.child[1])].box);
     }
+    writeHot(i);
   }
 }
 
@@ -167,6 +178,7 @@ void TriangleBvh::refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int3
       n.box = nodes_[static_cast<std::size_t>(n.child[0])].box;
       n.box.extend(nodes_[static_cast<std::size_t>(n.child[1])].box);
     }
+    writeHot(static_cast<std::size_t>(i));
     if (n.parent >= 0) {
       dirty.push_back(n.parent);
       std::push_heap(dirty.begin(), dirty.end());
@@ -397,42 +409,72 @@ SyncResult TriangleBvh::sync(const mesh::SurfaceMesh& m) {
 }
 
 void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const {
-  if (nodes_.empty()) return;
+  if (hot_.empty()) return;
+  const Vector3d lo = box.min.array() - pad_, hi = box.max.array() + pad_;
   std::array<std::int32_t, kStack> stack;
   std::size_t top = 0;
   stack[top++] = 0;
   while (top > 0) {
-    const Node& n = nodes_[static_cast<std::size_t>(stack[--top])];
-    if (n.box.empty() || !n.box.overlaps(box, pad_)) continue;
-    if (n.leaf()) {
-      for (std::int32_t i = 0; i < n.count; ++i) out.push_back(Face(n.faces[i]));
+    const std::int32_t i = stack[--top];
+    const HotNode& h = hot_[static_cast<std::size_t>(i)];
+    if (h.lo[0] > hi[0] || h.lo[1] > hi[1] || h.lo[2] > hi[2] || lo[0] > h.hi[0] || lo[1] > h.hi[1] || lo[2] > h.hi[2])
+      continue;
+    if (h.child[0] < 0) {
+      const Node& n = nodes_[static_cast<std::size_t>(i)];
+      for (std::int32_t k = 0; k < n.count; ++k) out.push_back(Face(n.faces[k]));
     } else {
-      stack[top++] = n.child[0];
-      stack[top++] = n.child[1];
+      stack[top++] = h.child[1];
+      stack[top++] = h.child[0];
     }
   }
 }
 
 void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
-                                   std::vector<SurfaceHit>& out) const {
+                                   std::vector<SurfaceHit>& out, QueryCounters* counters) const {
   checkMesh(m, "intersectSegment");
   out.clear();
-  if (nodes_.empty()) return;
+  if (hot_.empty()) return;
   const Vector3d d = b - a;
+  // Slab test against boxes grown by pad; axes the segment does not move along are
+  // a plain interval test.
+  double inv[3];
+  bool moves[3];
+  for (int k = 0; k < 3; ++k) {
+    moves[k] = d[k] != 0.0;
+    inv[k] = moves[k] ? 1.0 / d[k] : 0.0;
+  }
   std::array<std::int32_t, kStack> stack;
   std::size_t top = 0;
   stack[top++] = 0;
   while (top > 0) {
-    const Node& n = nodes_[static_cast<std::size_t>(stack[--top])];
-    if (n.box.empty() || !segmentHitsBox(a, d, n.box, pad_)) continue;
-    if (n.leaf()) {
-      for (std::int32_t i = 0; i < n.count; ++i) {
-        SurfaceHit h = intersectSegmentFace(m, Face(n.faces[i]), a, b, tol_);
-        if (h.kind != HitKind::None) out.push_back(h);
+    const std::int32_t i = stack[--top];
+    const HotNode& h = hot_[static_cast<std::size_t>(i)];
+    if (counters) ++counters->nodes;
+    double t0 = 0.0, t1 = 1.0;
+    bool hit = true;
+    for (int k = 0; k < 3 && hit; ++k) {
+      const double mn = static_cast<double>(h.lo[k]) - pad_, mx = static_cast<double>(h.hi[k]) + pad_;
+      if (!moves[k]) {
+        hit = a[k] >= mn && a[k] <= mx;
+        continue;
+      }
+      double u = (mn - a[k]) * inv[k], w = (mx - a[k]) * inv[k];
+      if (u > w) std::swap(u, w);
+      t0 = std::max(t0, u);
+      t1 = std::min(t1, w);
+      hit = t0 <= t1;
+    }
+    if (!hit) continue;
+    if (h.child[0] < 0) {
+      const Node& n = nodes_[static_cast<std::size_t>(i)];
+      if (counters) counters->faces += static_cast<std::size_t>(n.count);
+      for (std::int32_t k = 0; k < n.count; ++k) {
+        SurfaceHit sh = intersectSegmentFace(m, Face(n.faces[k]), a, b, tol_);
+        if (sh.kind != HitKind::None) out.push_back(sh);
       }
     } else {
-      stack[top++] = n.child[0];
-      stack[top++] = n.child[1];
+      stack[top++] = h.child[1];
+      stack[top++] = h.child[0];
     }
   }
   if (out.size() > 1) canonicalizeHits(m, out, defaultMergeDistance(a, b, tol_));

@@ -56,6 +56,12 @@ struct BvhStats {
 
 enum class SyncResult { Unchanged, Local, Rebuilt };
 
+// Work done by one query (for benchmarks and tuning).
+struct QueryCounters {
+  std::size_t nodes = 0;  // boxes tested
+  std::size_t faces = 0;  // triangles tested
+};
+
 class TriangleBvh {
  public:
   static constexpr int kLeafCapacity = 8;  // faces a leaf can hold before it splits
@@ -79,7 +85,7 @@ class TriangleBvh {
   // All contacts of segment a->b, sorted and canonical exactly as the brute-force
   // ld::collision::intersectSegment returns them. `out` is cleared first.
   void intersectSegment(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                        std::vector<SurfaceHit>& out) const;
+                        std::vector<SurfaceHit>& out, QueryCounters* counters = nullptr) const;
   [[nodiscard]] std::vector<SurfaceHit> intersectSegment(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a,
                                                          const Eigen::Vector3d& b) const {
     std::vector<SurfaceHit> out;
@@ -107,6 +113,13 @@ class TriangleBvh {
     std::uint32_t faces[kLeafCapacity] = {};
     [[nodiscard]] bool leaf() const { return child[0] < 0; }
   };
+  // The traversal copy of a node: float box rounded outwards, 32 bytes, two per
+  // cache line. Written from Node by writeHot() whenever a box is fitted.
+  struct HotNode {
+    float lo[3], hi[3];
+    std::int32_t child[2];
+  };
+  void writeHot(std::size_t i);
 
   std::int32_t buildRange(const mesh::SurfaceMesh& m, std::uint32_t* first, std::uint32_t* last,
                           std::vector<Eigen::Vector3d>& centroid, std::int32_t parent, std::size_t depth);
@@ -122,6 +135,7 @@ class TriangleBvh {
   Tolerance tol_;
   double pad_ = 0.0;
   std::vector<Node> nodes_;
+  std::vector<HotNode> hot_;
   std::vector<std::int32_t> faceLeaf_;  // per face index: its leaf node, or -1
   std::size_t tracked_ = 0;             // live faces in the tree
   std::size_t editsSinceBuild_ = 0, facesAtBuild_ = 0, builds_ = 0;

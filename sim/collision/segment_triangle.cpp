@@ -64,6 +64,9 @@ SegTriResult intersectSegmentTriangle(const Vector3d& a, const Vector3d& b, cons
   const Vector3d e[3] = {v1 - v0, v2 - v1, v0 - v2};
   const Vector3d n = e[0].cross(-e[2]);
   const double twiceArea = n.norm();
+  // Cheap early out (most calls): both ends clearly on one side of the plane.
+  const double H0 = n.dot(a - v0), H1 = n.dot(b - v0), lim = eps * twiceArea;
+  if ((H0 > lim && H1 > lim) || (H0 < -lim && H1 < -lim)) return r;
   EdgeFrame fr;
   fr.corner[0] = &v0;
   fr.corner[1] = &v1;
@@ -83,8 +86,8 @@ SegTriResult intersectSegmentTriangle(const Vector3d& a, const Vector3d& b, cons
   for (int i = 0; i < 3; ++i) fr.inward[i] = nh.cross(e[i]) / fr.length[i];
 
   const Vector3d d = b - a;
-  const double h0 = nh.dot(a - v0);  // heights of the ends over the plane
-  const double h1 = nh.dot(b - v0);
+  const double h0 = H0 / twiceArea;  // heights of the ends over the plane
+  const double h1 = H1 / twiceArea;
   const bool on0 = std::abs(h0) <= eps;
   const bool on1 = std::abs(h1) <= eps;
 

@@ -15,7 +15,7 @@
 //    farther than tol -> Interior; one within tol -> OnEdge; two -> OnVertex.
 //  * Local indices follow ld::mesh: edge i joins corner i and corner (i+1)%3.
 //  * A triangle with (almost) zero area (twice area <= tol * longest edge) gives
-//    None with degenerate = true.
+//    None, with degenerate = true unless the segment is clearly off its plane.
 #include <cstdint>
 #include <vector>
 
