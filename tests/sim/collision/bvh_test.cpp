@@ -11,10 +11,10 @@ namespace ld::collision {
 namespace {
 
 using Eigen::Vector3d;
-using mesh::Face;
-using mesh::SurfaceMesh;
 using ld::test::near;
 using ld::test::nearVec;
+using mesh::Face;
+using mesh::SurfaceMesh;
 
 ::testing::AssertionResult sameHits(const std::vector<SurfaceHit>& x, const std::vector<SurfaceHit>& y) {
   if (x.size() != y.size())
