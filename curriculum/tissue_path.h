@@ -1,0 +1,98 @@
+#pragma once
+// Paths on tissue (thesis 6.3): the drawn path and the cut path as points embedded
+// in the surface mesh (a face and barycentric coordinates), so they move with the
+// tissue as it deforms; re-embedded without moving when their triangles are
+// subdivided; the drawn path is broken (a stop) where the cut crosses it.
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "curriculum/metrics/polyline.h"
+#include "sim/mesh/surface_mesh.h"
+
+namespace ld::curriculum {
+
+struct SurfaceLocation {
+  mesh::Face face;
+  Eigen::Vector3d bary = Eigen::Vector3d::Zero();  // weights of mesh.vertices(face)
+};
+
+Eigen::Vector3d position(const mesh::SurfaceMesh& m, const SurfaceLocation& loc);
+// Closest point of triangle (a, b, c) to p, as barycentric weights.
+Eigen::Vector3d closestBarycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                   const Eigen::Vector3d& c);
+// Closest point of the surface to p (every live face; O(faces)). Invalid face for an
+// empty mesh. `distance` receives the distance.
+SurfaceLocation closestLocation(const mesh::SurfaceMesh& m, const Eigen::Vector3d& p, double* distance = nullptr);
+// Closest point searched from `start` over faces reachable through shared vertices,
+// up to `rings` rings; falls back to the whole mesh when start is not live.
+SurfaceLocation closestLocationNear(const mesh::SurfaceMesh& m, mesh::Face start, const Eigen::Vector3d& p, int rings,
+                                    double* distance = nullptr);
+
+// Face property naming the original triangle a face comes from (split faces inherit
+// it), so that "one piece per original triangle" survives subdivision.
+inline constexpr const char* kOriginFaceProp = "f:ld_origin";
+// Tags every live face with its own index (call once when a task starts).
+void tagOriginalFaces(mesh::SurfaceMesh& m);
+std::int64_t originalFace(const mesh::SurfaceMesh& m, mesh::Face f);
+
+class TissuePath {
+ public:
+  struct Point {
+    SurfaceLocation loc;
+    bool stop = false;  // ends a piece as drawn
+    bool cut = false;   // the cut crossed the path right after this point
+  };
+
+  // Embeds world points; throws PathError when a point is farther than maxDistance
+  // from the surface.
+  static TissuePath embed(const mesh::SurfaceMesh& m, const Polyline& world, double maxDistance = 1.0);
+
+  // Current positions; a crossing cut ends a piece too.
+  [[nodiscard]] Polyline positions(const mesh::SurfaceMesh& m) const;
+  // The path as drawn (pieces as authored, ignoring the cut's breaks).
+  [[nodiscard]] Polyline drawnPositions(const mesh::SurfaceMesh& m) const;
+  [[nodiscard]] const std::vector<Point>& points() const { return pts_; }
+
+  // After topology edits: `before` are the world positions taken just before
+  // (positions(m) of the old mesh). Each point is found again in its old face or
+  // around it, at the same place.
+  void reembed(const mesh::SurfaceMesh& m, const std::vector<Eigen::Vector3d>& before);
+  [[nodiscard]] std::vector<Eigen::Vector3d> worldPoints(const mesh::SurfaceMesh& m) const;
+  // After garbageCollection().
+  void remap(const mesh::Compaction& c);
+
+  // The cut moved from a to b on the surface (normal n there): every path segment it
+  // crosses is broken (thesis 6.3.3). Returns the number of crossings.
+  int cutAcross(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                const Eigen::Vector3d& n, double maxGap = 1.0);
+
+ private:
+  std::vector<Point> pts_;
+};
+
+// Records the cut path (thesis 6.3.1): the points where the cutting edge meets the
+// surface, simplified to one straight piece per original triangle (its first and
+// last point there), with a stop at every loss of contact.
+class CutPathRecorder {
+ public:
+  void contact(const mesh::SurfaceMesh& m, mesh::Face f, const Eigen::Vector3d& p);
+  void loseContact();
+  [[nodiscard]] const Polyline& path() const { return path_; }
+  // The path including the pending last point (for display while cutting).
+  [[nodiscard]] Polyline currentPath() const;
+
+ private:
+  Polyline path_;
+  bool open_ = false, pending_ = false;
+  std::int64_t origin_ = -1;
+  Eigen::Vector3d last_ = Eigen::Vector3d::Zero();
+};
+
+// 2-D proper crossing of two segments projected on the plane normal to n.
+bool segmentsCross(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                   const Eigen::Vector3d& d, const Eigen::Vector3d& n, double maxGap);
+
+}  // namespace ld::curriculum
