@@ -1,5 +1,6 @@
-// Helper for crash_test: writes attempts in a loop until it is killed. After each commit it
-// prints "RUN K" on stdout (unbuffered), so the parent knows which attempts were committed.
+// Helper for crash_test: writes attempts in a loop until it is killed. It prints "ready"
+// once logged in, then "RUN K" after each commit (unbuffered), so that the parent knows
+// which attempts were committed.
 #include <unistd.h>
 
 #include <cstdio>
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
     auto store = ld::db::Store::open(argv[1], o);
     const auto session = store.login("writer", "writer-password");
     const int run = std::atoi(argv[2]);
+    if (::write(1, "ready\n", 6) < 0) return 1;
     for (int k = 0;; ++k) {
       store.recordAttempt(session, ld::test::crashAttempt(run, k));
       const std::string line = std::to_string(run) + " " + std::to_string(k) + "\n";
