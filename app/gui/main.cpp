@@ -1,6 +1,10 @@
 // lapdissect: the desktop program.
-//   lapdissect [--model FILE] [--db URL] [--wireframe]
-//              [--screenshot OUT.png [--size WxH] [--whole-window]]
+//   lapdissect [--model FILE] [--db URL] [--wireframe] [--no-physics]
+//              [--screenshot OUT.png [--size WxH] [--whole-window]
+//               [--physics [--push X,Y,Z,FX,FY,FZ] [--sim-time S]]]
+// With --physics the screenshot is taken after the tissue has settled and run for
+// --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z);
+// a JSON line with the simulation's figures goes to stdout.
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
 #include <QApplication>
@@ -11,17 +15,44 @@
 #include <QSurfaceFormat>
 #include <QTimer>
 
+#include <QElapsedTimer>
+#include <QStringList>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
+#include <limits>
+#include <optional>
 
 #include "app/gui/main_window.h"
 #include "app/gui/mesh_view.h"
 #include "app/gui/resource_paths.h"
+#ifdef LD_GUI_HAVE_PHYSICS
+#include "app/gui/physics_session.h"
+#endif
 
 namespace {
 
 constexpr int kBadInput = 2;
 
 void printError(const QString& s) { std::fprintf(stderr, "lapdissect: %s\n", qPrintable(s)); }
+
+// The referenced vertex nearest p (first three entries).
+std::optional<std::size_t> nearestVertex(const ld::gui::RenderMesh& m, const std::array<double, 6>& p) {
+  std::optional<std::size_t> best;
+  double bestD = std::numeric_limits<double>::infinity();
+  for (const auto& t : m.triangles)
+    for (auto v : t) {
+      double d = 0;
+      for (std::size_t a = 0; a < 3; ++a) d += std::pow(static_cast<double>(m.positions[v][a]) - p[a], 2);
+      if (d < bestD) {
+        bestD = d;
+        best = v;
+      }
+    }
+  return best;
+}
 
 }  // namespace
 
@@ -58,7 +89,18 @@ int main(int argc, char** argv) {
   const QCommandLineOption dbOpt(QStringLiteral("db"),
                                  QStringLiteral("Trainee store URL (sqlite:PATH or postgresql://...)."),
                                  QStringLiteral("URL"));
-  parser.addOptions({modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt});
+  const QCommandLineOption noPhysicsOpt(QStringLiteral("no-physics"),
+                                        QStringLiteral("Do not run the tissue simulation."));
+  const QCommandLineOption physicsOpt(QStringLiteral("physics"),
+                                      QStringLiteral("With --screenshot: settle and simulate the tissue first."));
+  const QCommandLineOption pushOpt(QStringLiteral("push"),
+                                   QStringLiteral("With --physics: force [mN] at the vertex nearest a point [mm]."),
+                                   QStringLiteral("X,Y,Z,FX,FY,FZ"));
+  const QCommandLineOption simTimeOpt(QStringLiteral("sim-time"),
+                                      QStringLiteral("With --physics: simulated seconds after settling (default 0.5)."),
+                                      QStringLiteral("S"), QStringLiteral("0.5"));
+  parser.addOptions(
+      {modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt, noPhysicsOpt, physicsOpt, pushOpt, simTimeOpt});
   if (!parser.parse(QApplication::arguments())) {
     printError(parser.errorText());
     return kBadInput;
@@ -73,9 +115,34 @@ int main(int argc, char** argv) {
   QString model = parser.value(modelOpt);
   if (model.isEmpty()) model = ld::gui::defaultModelPath();
 
+  const bool shot = parser.isSet(shotOpt);
+  const bool physics = shot ? parser.isSet(physicsOpt) : !parser.isSet(noPhysicsOpt);
+  if (physics && shot && !ld::gui::MainWindow::physicsAvailable()) {
+    printError(QStringLiteral("--physics: this build has no physics module (ld_sim_physics with ld_sim_io)"));
+    return kBadInput;
+  }
+  std::array<double, 6> push{};
+  const bool hasPush = parser.isSet(pushOpt);
+  if (hasPush) {
+    const QStringList parts = parser.value(pushOpt).split(',');
+    bool ok = parts.size() == 6;
+    for (int i = 0; ok && i < 6; ++i) push[static_cast<std::size_t>(i)] = parts[i].toDouble(&ok);
+    if (!ok || !physics) {
+      printError(QStringLiteral("--push: expected X,Y,Z,FX,FY,FZ (six numbers) together with --physics"));
+      return kBadInput;
+    }
+  }
+  bool simTimeOk = false;
+  const double simTime = parser.value(simTimeOpt).toDouble(&simTimeOk);
+  if (!simTimeOk || !(simTime >= 0.0) || simTime > 60.0) {
+    printError(QStringLiteral("--sim-time: '%1' is not a number of seconds in [0, 60]").arg(parser.value(simTimeOpt)));
+    return kBadInput;
+  }
+
   ld::gui::MainWindow window;
   window.setDatabaseUrl(parser.value(dbOpt));
   window.view()->setWireframe(parser.isSet(wireOpt));
+  window.setPhysicsEnabled(physics);
 
   if (parser.isSet(shotOpt)) {
     static const QRegularExpression sizeRe(QStringLiteral("^(\\d+)x(\\d+)$"));
@@ -100,7 +167,7 @@ int main(int argc, char** argv) {
     window.view()->fitToView();  // the view has its final size only now
     const QString out = parser.value(shotOpt);
     int rc = 0;
-    QTimer::singleShot(0, &window, [&] {
+    auto take = [&] {
       const QImage image = parser.isSet(windowOpt) ? window.grab().toImage() : window.view()->grabFramebuffer();
       if (image.isNull() || !image.save(out, "PNG")) {
         printError(QStringLiteral("%1:0: cannot write the screenshot").arg(out));
@@ -109,9 +176,64 @@ int main(int argc, char** argv) {
         std::printf("%s\n", qPrintable(window.view()->rendererInfo()));
       }
       QApplication::quit();
+    };
+    if (!physics) {
+      QTimer::singleShot(0, &window, take);
+      return std::max(rc, QApplication::exec());
+    }
+#ifdef LD_GUI_HAVE_PHYSICS
+    // Poll until the tissue has settled and then run --sim-time more simulated seconds.
+    QElapsedTimer wall;
+    wall.start();
+    double startTime = -1.0;
+    std::optional<std::size_t> pushed;
+    ld::gui::Vec3f pushedFrom{};
+    QTimer poll;
+    QObject::connect(&poll, &QTimer::timeout, &window, [&] {
+      ld::gui::PhysicsSession* session = window.physics();
+      if (!session) {
+        printError(QStringLiteral("the simulation did not start"));
+        rc = 1;
+        QApplication::quit();
+        return;
+      }
+      if (wall.elapsed() > 120000) {
+        printError(QStringLiteral("the simulation did not reach the requested time within 120 s"));
+        rc = 1;
+        QApplication::quit();
+        return;
+      }
+      if (!session->settled()) return;
+      if (startTime < 0) {
+        startTime = session->simTime();
+        if (hasPush) {
+          session->forceAt(Eigen::Vector3d(push[0], push[1], push[2]), Eigen::Vector3d(push[3], push[4], push[5]));
+          window.pollPhysics();
+          pushed = nearestVertex(window.view()->mesh(), push);
+          if (pushed) pushedFrom = window.view()->mesh().positions[*pushed];
+        }
+        return;
+      }
+      if (session->simTime() < startTime + simTime) return;
+      poll.stop();
+      window.pollPhysics();
+      const ld::gui::RenderMesh& shown = window.view()->mesh();
+      const ld::gui::Bounds b = shown.bounds();
+      // How far the pushed vertex moved since the force was applied [mm].
+      std::array<double, 3> moved{0, 0, 0};
+      if (pushed)
+        for (std::size_t a = 0; a < 3; ++a)
+          moved[a] = static_cast<double>(shown.positions[*pushed][a]) - static_cast<double>(pushedFrom[a]);
+      std::printf(
+          "{\"settled\":true,\"settle_sim_time_s\":%.4f,\"sim_time_s\":%.4f,\"min_z\":%.4f,\"max_z\":%.4f,"
+          "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"status\":\"%s\"}\n",
+          startTime, session->simTime(), static_cast<double>(b.min[2]), static_cast<double>(b.max[2]), moved[0],
+          moved[1], moved[2], shown.positions.size(), shown.triangles.size(), qPrintable(session->status()));
+      take();
     });
-    const int loopRc = QApplication::exec();
-    return rc != 0 ? rc : loopRc;
+    poll.start(10);
+    return std::max(rc, QApplication::exec());
+#endif
   }
 
   window.resize(1280, 860);

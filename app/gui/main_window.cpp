@@ -10,11 +10,27 @@
 #include <QMessageBox>
 #include <QProgressDialog>
 #include <QStatusBar>
+#include <QTimer>
 
 #include "app/gui/mesh_view.h"
 #include "app/gui/resource_paths.h"
+#ifdef LD_GUI_HAVE_PHYSICS
+#include "app/gui/physics_session.h"
+#endif
 
 namespace ld::gui {
+
+#ifndef LD_GUI_HAVE_PHYSICS
+class PhysicsSession {};  // never created: the physics module is not built
+#endif
+
+bool MainWindow::physicsAvailable() {
+#ifdef LD_GUI_HAVE_PHYSICS
+  return true;
+#else
+  return false;
+#endif
+}
 
 MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   setWindowTitle(QStringLiteral("lapdissect"));
@@ -22,16 +38,74 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   setCentralWidget(view_);
   countsLabel_ = new QLabel(this);
   dbLabel_ = new QLabel(this);
+  physicsLabel_ = new QLabel(this);
+  statusBar()->addPermanentWidget(physicsLabel_);
   statusBar()->addPermanentWidget(dbLabel_);
   statusBar()->addPermanentWidget(countsLabel_);
   buildMenus();
   updateCounts();
   setDatabaseUrl({});
+
+  frameTimer_ = new QTimer(this);
+  frameTimer_->setInterval(16);  // about 60 frames per second
+  connect(frameTimer_, &QTimer::timeout, this, &MainWindow::pollPhysics);
+  view_->setPushEnabled(physicsAvailable());
+  connect(view_, &MeshView::pushStarted, this, [this](std::uint32_t v, const QVector3D& p) {
+    pushVertex_ = v;
+    pushTarget_ = p;
+  });
+  connect(view_, &MeshView::pushMoved, this, [this](const QVector3D& target) { pushTarget_ = target; });
+  connect(view_, &MeshView::pushEnded, this, [this] {
+    pushVertex_.reset();
+#ifdef LD_GUI_HAVE_PHYSICS
+    if (physics_) physics_->release();
+#endif
+  });
 }
 
 MainWindow::~MainWindow() {
   ++loadId_;
   if (loader_.joinable()) loader_.join();
+  physics_.reset();
+}
+
+void MainWindow::setPhysicsEnabled(bool on) {
+  physicsEnabled_ = on && physicsAvailable();
+  if (physicsAction_) physicsAction_->setChecked(physicsEnabled_);
+  restartPhysics();
+}
+
+void MainWindow::restartPhysics() {
+  physics_.reset();
+  pushVertex_.reset();
+  frameTimer_->stop();
+  physicsLabel_->setText(physicsAvailable() ? tr("Physics: off") : QString());
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (!physicsEnabled_ || !original_) {
+    if (original_) view_->setMesh(renderMeshFrom(*original_), false);  // back to the loaded shape
+    return;
+  }
+  physics_ = std::make_unique<PhysicsSession>(*original_);
+  frameTimer_->start();
+#endif
+}
+
+void MainWindow::pollPhysics() {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (!physics_) return;
+  if (pushVertex_)
+    physics_->pushToward(*pushVertex_, Eigen::Vector3d(pushTarget_.x(), pushTarget_.y(), pushTarget_.z()));
+  bool topologyChanged = false;
+  if (physics_->update(simMesh_, topologyChanged)) {
+    if (topologyChanged) {
+      view_->setMesh(simMesh_, false);
+      updateCounts();
+    } else {
+      view_->updatePositions(simMesh_.positions);
+    }
+  }
+  physicsLabel_->setText(physics_->status());
+#endif
 }
 
 void MainWindow::buildMenus() {
@@ -65,11 +139,27 @@ void MainWindow::buildMenus() {
   QAction* reset = view->addAction(tr("&Reset view"), view_, &MeshView::resetView);
   reset->setShortcut(QKeySequence(Qt::Key_R));
 
+  if (physicsAvailable()) {
+    QMenu* sim = menuBar()->addMenu(tr("&Simulation"));
+    physicsAction_ = sim->addAction(tr("&Run physics"));
+    physicsAction_->setCheckable(true);
+    physicsAction_->setChecked(physicsEnabled_);
+    physicsAction_->setShortcut(QKeySequence(Qt::Key_Space));
+    connect(physicsAction_, &QAction::toggled, this, [this](bool on) {
+      if (on != physicsEnabled_) setPhysicsEnabled(on);
+    });
+    sim->addAction(tr("R&estart from the loaded model"), this, [this] { restartPhysics(); });
+    QAction* pushMode = sim->addAction(tr("&Push with a plain left drag"));
+    pushMode->setCheckable(true);
+    connect(pushMode, &QAction::toggled, view_, &MeshView::setPushMode);
+  }
+
   QMenu* help = menuBar()->addMenu(tr("&Help"));
   help->addAction(tr("&Mouse controls"), this, [this] {
     QMessageBox::information(this, tr("Mouse controls"),
                              tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
-                                "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe"));
+                                "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe\n"
+                                "Ctrl + left drag: push or pull the tissue (physics running)\nSpace: physics on/off"));
   });
   help->addAction(tr("&About"), this, [this] {
     QMessageBox::about(
@@ -93,11 +183,15 @@ void MainWindow::showModel(LoadedModel model) {
   currentFile_ = QString::fromStdString(model.file.string());
   const auto warnings = model.warnings.size();
   view_->setMesh(std::move(model.mesh));
+#ifdef LD_GUI_HAVE_SIM_IO
+  original_ = std::move(model.surface);
+#endif
+  restartPhysics();
   updateCounts();
   setWindowTitle(QStringLiteral("lapdissect - %1").arg(QFileInfo(currentFile_).fileName()));
-  statusBar()->showMessage(
-      warnings ? tr("Loaded %1 (%2 warnings)").arg(currentFile_).arg(warnings) : tr("Loaded %1").arg(currentFile_),
-      8000);
+  const QString name = QFileInfo(currentFile_).fileName();
+  statusBar()->showMessage(warnings ? tr("Loaded %1 (%2 warnings)").arg(name).arg(warnings) : tr("Loaded %1").arg(name),
+                           8000);
   emit modelLoaded(currentFile_);
 }
 

@@ -11,12 +11,16 @@
 #include "app/gui/model_loader.h"
 
 class QLabel;
+class QTimer;
 class QProgressDialog;
 class QAction;
+
+#include <QVector3D>
 
 namespace ld::gui {
 
 class MeshView;
+class PhysicsSession;
 
 class MainWindow : public QMainWindow {
   Q_OBJECT
@@ -33,6 +37,14 @@ class MainWindow : public QMainWindow {
   void showModel(LoadedModel model);
   void setDatabaseUrl(const QString& url);
 
+  // The tissue simulation (when the physics module is built): runs on models loaded
+  // through the importers while enabled.
+  [[nodiscard]] static bool physicsAvailable();
+  void setPhysicsEnabled(bool on);
+  [[nodiscard]] PhysicsSession* physics() const { return physics_.get(); }
+  // Pulls the latest snapshot into the view (the frame timer calls it).
+  void pollPhysics();
+
  public slots:
   void openModel();
 
@@ -44,6 +56,7 @@ class MainWindow : public QMainWindow {
   void buildMenus();
   void finishLoad(unsigned id, std::shared_ptr<LoadedModel> model, const QString& error);
   void updateCounts();
+  void restartPhysics();
 
   MeshView* view_ = nullptr;
   QLabel* countsLabel_ = nullptr;
@@ -53,6 +66,18 @@ class MainWindow : public QMainWindow {
   std::thread loader_;
   unsigned loadId_ = 0;  // a newer load or a cancel makes older results stale
   QString currentFile_;
+
+  std::unique_ptr<PhysicsSession> physics_;
+  bool physicsEnabled_ = true;
+  QAction* physicsAction_ = nullptr;
+  QLabel* physicsLabel_ = nullptr;
+  QTimer* frameTimer_ = nullptr;
+  RenderMesh simMesh_;
+#ifdef LD_GUI_HAVE_SIM_IO
+  std::optional<mesh::SurfaceMesh> original_;  // the model as loaded, to restart from
+#endif
+  std::optional<std::uint32_t> pushVertex_;
+  QVector3D pushTarget_;
 };
 
 }  // namespace ld::gui

@@ -3,6 +3,7 @@
 #include <QMouseEvent>
 #include <QWheelEvent>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace ld::gui {
@@ -137,8 +138,69 @@ void MeshView::paintGL() {
   program_->release();
 }
 
+std::optional<PickHit> MeshView::pick(const QPointF& windowPos) const {
+  const QVector3D origin = camera_.eye();
+  const QVector3D dir = camera_.rayDirection(static_cast<float>(windowPos.x()), static_cast<float>(windowPos.y()),
+                                             static_cast<float>(width()), static_cast<float>(height()));
+  std::optional<PickHit> best;
+  // Moller-Trumbore against every triangle: a pick happens once per press.
+  for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
+    const auto& t = mesh_.triangles[f];
+    const auto& pa = mesh_.positions[t[0]];
+    const auto& pb = mesh_.positions[t[1]];
+    const auto& pc = mesh_.positions[t[2]];
+    const QVector3D a(pa[0], pa[1], pa[2]), b(pb[0], pb[1], pb[2]), c(pc[0], pc[1], pc[2]);
+    const QVector3D e1 = b - a, e2 = c - a;
+    const QVector3D p = QVector3D::crossProduct(dir, e2);
+    const float det = QVector3D::dotProduct(e1, p);
+    if (std::abs(det) < 1e-12F) continue;
+    const float inv = 1.0F / det;
+    const QVector3D s = origin - a;
+    const float u = QVector3D::dotProduct(s, p) * inv;
+    if (u < 0.0F || u > 1.0F) continue;
+    const QVector3D q = QVector3D::crossProduct(s, e1);
+    const float v = QVector3D::dotProduct(dir, q) * inv;
+    if (v < 0.0F || u + v > 1.0F) continue;
+    const float dist = QVector3D::dotProduct(e2, q) * inv;
+    if (dist <= 0.0F || (best && dist >= best->distance)) continue;
+    PickHit h;
+    h.face = static_cast<std::uint32_t>(f);
+    h.point = origin + dist * dir;
+    h.distance = dist;
+    const float w0 = 1.0F - u - v;
+    h.vertex = (w0 >= u && w0 >= v) ? t[0] : (u >= v ? t[1] : t[2]);
+    best = h;
+  }
+  return best;
+}
+
+std::optional<QVector3D> MeshView::dragPoint(const QPointF& windowPos, const QVector3D& through) const {
+  const QVector3D origin = camera_.eye();
+  const QVector3D dir = camera_.rayDirection(static_cast<float>(windowPos.x()), static_cast<float>(windowPos.y()),
+                                             static_cast<float>(width()), static_cast<float>(height()));
+  const QVector3D n = camera_.forward();
+  const float denom = QVector3D::dotProduct(dir, n);
+  if (std::abs(denom) < 1e-6F) return std::nullopt;
+  const float t = QVector3D::dotProduct(through - origin, n) / denom;
+  if (t <= 0.0F) return std::nullopt;
+  return origin + t * dir;
+}
+
 void MeshView::mousePressEvent(QMouseEvent* e) {
   lastMouse_ = e->position().toPoint();
+  const bool pushGesture =
+      pushEnabled_ && e->button() == Qt::LeftButton &&
+      ((e->modifiers() & Qt::ControlModifier) || (pushMode_ && !(e->modifiers() & Qt::ShiftModifier)));
+  if (pushGesture) {
+    if (const auto hit = pick(e->position())) {
+      drag_ = Drag::Push;
+      pushPoint_ = hit->point;
+      emit pushStarted(hit->vertex, hit->point);
+    } else {
+      drag_ = Drag::None;
+    }
+    return;
+  }
   const bool pan = e->button() == Qt::RightButton || e->button() == Qt::MiddleButton ||
                    (e->button() == Qt::LeftButton && (e->modifiers() & Qt::ShiftModifier));
   drag_ = pan ? Drag::Pan : (e->button() == Qt::LeftButton ? Drag::Orbit : Drag::None);
@@ -148,6 +210,10 @@ void MeshView::mouseMoveEvent(QMouseEvent* e) {
   const QPoint p = e->position().toPoint();
   const QPoint d = p - lastMouse_;
   lastMouse_ = p;
+  if (drag_ == Drag::Push) {
+    if (const auto target = dragPoint(e->position(), pushPoint_)) emit pushMoved(*target);
+    return;
+  }
   if (drag_ == Drag::Orbit)
     camera_.orbit(static_cast<float>(d.x()), static_cast<float>(d.y()));
   else if (drag_ == Drag::Pan)
@@ -157,7 +223,10 @@ void MeshView::mouseMoveEvent(QMouseEvent* e) {
   update();
 }
 
-void MeshView::mouseReleaseEvent(QMouseEvent*) { drag_ = Drag::None; }
+void MeshView::mouseReleaseEvent(QMouseEvent*) {
+  if (drag_ == Drag::Push) emit pushEnded();
+  drag_ = Drag::None;
+}
 
 void MeshView::mouseDoubleClickEvent(QMouseEvent*) { fitToView(); }
 

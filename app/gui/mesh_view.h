@@ -2,7 +2,9 @@
 // The 3-D view: draws a RenderMesh with Phong shading (GLSL 3.3 core), optional
 // wireframe overlay and two-sided lighting, and turns mouse gestures into camera
 // motion. Left drag orbits, right or middle drag (or Shift+left) pans, the wheel
-// zooms, a double click fits the model to the view.
+// zooms, a double click fits the model to the view. With pushing enabled, Ctrl+left
+// drag (or a plain left drag in push mode) grabs the surface point under the cursor
+// and reports where the cursor pulls it (pushStarted / pushMoved / pushEnded).
 #include <QOpenGLBuffer>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLShaderProgram>
@@ -10,12 +12,21 @@
 #include <QOpenGLWidget>
 #include <QPoint>
 
+#include <cstdint>
 #include <memory>
+#include <optional>
 
 #include "app/gui/orbit_camera.h"
 #include "app/gui/render_mesh.h"
 
 namespace ld::gui {
+
+struct PickHit {
+  std::uint32_t face = 0;
+  std::uint32_t vertex = 0;  // the face's corner nearest the hit
+  QVector3D point;
+  float distance = 0;  // along the ray from the eye
+};
 
 class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   Q_OBJECT
@@ -29,6 +40,11 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   // Same triangles, moved vertices (for a deforming tissue).
   void updatePositions(const std::vector<Vec3f>& positions);
   [[nodiscard]] const RenderMesh& mesh() const { return mesh_; }
+
+  // The nearest front triangle under a window point (pixels), if any.
+  [[nodiscard]] std::optional<PickHit> pick(const QPointF& windowPos) const;
+  // Where the cursor at windowPos meets the plane through `through` facing the camera.
+  [[nodiscard]] std::optional<QVector3D> dragPoint(const QPointF& windowPos, const QVector3D& through) const;
 
   [[nodiscard]] bool wireframe() const { return wireframe_; }
   [[nodiscard]] bool twoSided() const { return twoSided_; }
@@ -44,9 +60,14 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void setTwoSided(bool on);
   void fitToView();
   void resetView();
+  void setPushEnabled(bool on) { pushEnabled_ = on; }
+  void setPushMode(bool on) { pushMode_ = on; }
 
  signals:
   void glReady(const QString& rendererInfo);
+  void pushStarted(std::uint32_t vertex, const QVector3D& point);
+  void pushMoved(const QVector3D& target);
+  void pushEnded();
 
  protected:
   void initializeGL() override;
@@ -59,7 +80,7 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void wheelEvent(QWheelEvent* e) override;
 
  private:
-  enum class Drag { None, Orbit, Pan };
+  enum class Drag { None, Orbit, Pan, Push };
   void upload();
   [[nodiscard]] float aspect() const;
 
@@ -70,6 +91,9 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   OrbitCamera camera_;
   Drag drag_ = Drag::None;
   QPoint lastMouse_;
+  bool pushEnabled_ = false;
+  bool pushMode_ = false;
+  QVector3D pushPoint_;
   QString rendererInfo_;
 
   std::unique_ptr<QOpenGLShaderProgram> program_;

@@ -17,8 +17,10 @@ namespace {
   throw ModelLoadError(file.string() + ":" + std::to_string(line) + ": " + reason);
 }
 
+}  // namespace
+
 #ifdef LD_GUI_HAVE_SIM_IO
-RenderMesh fromSurfaceMesh(const mesh::SurfaceMesh& sm) {
+RenderMesh renderMeshFrom(const mesh::SurfaceMesh& sm) {
   RenderMesh r;
   std::vector<std::uint32_t> index(sm.verticesSize(), 0);
   for (auto v : sm.vertices()) {
@@ -34,8 +36,6 @@ RenderMesh fromSurfaceMesh(const mesh::SurfaceMesh& sm) {
   return r;
 }
 #endif
-
-}  // namespace
 
 RenderMesh readObjForDisplay(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
@@ -86,8 +86,9 @@ LoadedModel loadModel(const std::filesystem::path& file) {
 #ifdef LD_GUI_HAVE_SIM_IO
   try {
     io::ImportReport report;
-    const mesh::SurfaceMesh sm = io::readMesh(file, &report);
-    out.mesh = fromSurfaceMesh(sm);
+    mesh::SurfaceMesh sm = io::readMesh(file, &report);
+    out.mesh = renderMeshFrom(sm);
+    out.surface = std::move(sm);
     out.warnings = std::move(report.warnings);
   } catch (const io::ParseError& e) {
     throw ModelLoadError(e.what());

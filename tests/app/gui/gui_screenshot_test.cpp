@@ -5,6 +5,7 @@
 #include <QImage>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cstdlib>
 #include <filesystem>
@@ -125,6 +126,31 @@ TEST(GuiScreenshot, OpenMeshWithTwoSidedLighting) {
   const Shot s = screenshot(hull, "hull");
   ASSERT_EQ(s.run.exitCode, 0) << s.run.err;
   ASSERT_FALSE(s.image.isNull());
+}
+#endif
+
+#ifdef LD_GUI_HAVE_PHYSICS
+TEST(GuiScreenshot, PhysicsSettlesAndAPushDentsTheTissue) {
+  LD_REQUIRE_DISPLAY();
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "push",
+                            "--physics --push 0,0,2.5,0,0,-300 --sim-time 0.5");
+  expectShowsTissue(s, 0.5);
+  // The JSON line is the last line of stdout.
+  const auto brace = s.run.out.find('{');
+  ASSERT_NE(brace, std::string::npos) << s.run.out;
+  const auto j = nlohmann::json::parse(s.run.out.substr(brace, s.run.out.find('\n', brace) - brace));
+  EXPECT_TRUE(j.at("settled").get<bool>());
+  EXPECT_GE(j.at("sim_time_s").get<double>(), j.at("settle_sim_time_s").get<double>() + 0.5);
+  const auto d = j.at("pushed_displacement");
+  EXPECT_LT(d[2].get<double>(), -1.0) << "the pushed point moved down";
+  EXPECT_LT(std::abs(d[0].get<double>()) + std::abs(d[1].get<double>()), 0.5) << "straight down";
+  EXPECT_EQ(j.at("triangles").get<int>(), 10144);
+}
+
+TEST(GuiScreenshot, PushWithoutPhysicsIsBadInput) {
+  LD_REQUIRE_DISPLAY();
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "nophys", "--push 0,0,0,0,0,1");
+  EXPECT_EQ(s.run.exitCode, 2) << s.run.err;
 }
 #endif
 

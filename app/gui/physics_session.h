@@ -1,0 +1,67 @@
+#pragma once
+// The tissue simulation behind the window: a physics::SimulationLoop on its own
+// thread (it settles the tissue first, then runs at a fixed rate), read by the GUI
+// thread through snapshots only. The mouse pushes the tissue through a virtual
+// spring between the picked vertex and the cursor's point.
+#include <QString>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "app/gui/render_mesh.h"
+#include "sim/mesh/surface_mesh.h"
+
+namespace ld::physics {
+class SimulationLoop;
+}
+
+namespace ld::gui {
+
+class PhysicsSession {
+ public:
+  // Stiffness of the mouse's virtual spring [mN/mm] and the largest force it exerts [mN].
+  static constexpr double kPushStiffness = 20.0;
+  static constexpr double kMaxPushForce = 400.0;
+  static constexpr double kPushRadius = 4.0;  // [mm] the pulled patch around the picked vertex
+
+  explicit PhysicsSession(mesh::SurfaceMesh mesh);
+  ~PhysicsSession();
+  PhysicsSession(const PhysicsSession&) = delete;
+  PhysicsSession& operator=(const PhysicsSession&) = delete;
+
+  // Copies the latest snapshot into `out` when it is newer than the last one taken.
+  // Returns true then; `topologyChanged` tells whether the triangles changed too.
+  bool update(RenderMesh& out, bool& topologyChanged);
+
+  // Pulls vertex v toward `target` with the virtual spring (call again as the cursor
+  // or the tissue moves); release() lets go.
+  void pushToward(std::uint32_t vertex, const Eigen::Vector3d& target);
+  void release();
+  // A force spread over the patch around the vertex nearest `point` (--push).
+  void forceAt(const Eigen::Vector3d& point, const Eigen::Vector3d& force);
+
+  [[nodiscard]] bool settled() const;
+  [[nodiscard]] double settleProgress() const;
+  [[nodiscard]] double simTime() const;
+  [[nodiscard]] QString status() const;  // one line for the status bar
+
+ private:
+  // Force f spread over the patch around vertex (total f).
+  void applyPatchForce(std::uint32_t vertex, const Eigen::Vector3d& f);
+
+  std::unique_ptr<physics::SimulationLoop> loop_;
+  std::uint64_t lastSerial_ = 0;
+  std::uint64_t lastTopology_ = 0;
+  bool first_ = true;
+  std::optional<std::uint32_t> pushed_;
+  std::uint64_t patchTopology_ = ~std::uint64_t{0};
+  std::uint32_t patchCentre_ = ~std::uint32_t{0};
+  std::vector<std::uint32_t> patchVertices_;
+  double pushForce_ = 0.0;
+};
+
+}  // namespace ld::gui
