@@ -622,6 +622,14 @@ TEST(StoreUrl, ParsesAndRefusesUrls) {
   EXPECT_THROW(Store::open("postgresql://user@host:5432/"), InvalidArgument);
   EXPECT_THROW(Store::open(""), InvalidArgument);
   EXPECT_THROW(Store::open("/tmp"), InvalidArgument);  // a directory
+  try {
+    Store::open("postgresql://postgres@127.0.0.1:1/nothing", fastOptions());  // nobody listens on port 1
+    ADD_FAILURE() << "connected to port 1";
+  } catch (const InvalidArgument&) {
+    ADD_FAILURE() << "a well-formed URL was called malformed";
+  } catch (const DbError& e) {
+    EXPECT_NE(std::string(e.what()).find("127.0.0.1:1/nothing"), std::string::npos) << e.what();
+  }
   // Plain paths and sqlite URLs reach the same file.
   const auto dir = std::filesystem::temp_directory_path() / ("ld_url_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
