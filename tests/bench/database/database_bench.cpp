@@ -89,6 +89,8 @@ void BM_RecordAttempt60kSamples(benchmark::State& state, std::string url) {
   std::int64_t id = 0;
   for (auto _ : state) id = st.recordAttempt(admin, a);
   state.counters["raw_MB"] = double(a.samples.size()) / 1e6;
+  state.counters["stored_MB"] =
+      double(qCompress(QByteArray::fromRawData(a.samples.data(), qsizetype(a.samples.size())), 3).size()) / 1e6;
   state.SetBytesProcessed(std::int64_t(state.iterations()) * std::int64_t(a.samples.size()));
   // Read back for replay, once, to report that too.
   const auto t0 = std::chrono::steady_clock::now();
