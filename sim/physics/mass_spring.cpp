@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <thread>
 #include <utility>
 
 #include <Eigen/IterativeLinearSolvers>
@@ -81,6 +83,80 @@ FlushDenormals::~FlushDenormals() {
 #endif
 }
 
+// ---- the helper thread ---------------------------------------------------------
+
+namespace detail {
+
+// Runs one job at a time on its own thread. The handoff spins briefly (a step is
+// shorter than a wake-up from sleep) and then sleeps on the atomic, so an idle
+// worker costs nothing.
+class Worker {
+ public:
+  Worker() : thread_([this] { loop(); }) {}
+  ~Worker() {
+    quit_.store(true);
+    go_.fetch_add(1);
+    go_.notify_one();
+    thread_.join();
+  }
+  Worker(const Worker&) = delete;
+  Worker& operator=(const Worker&) = delete;
+
+  void start(void (*fn)(void*), void* ctx) {
+    fn_ = fn;
+    ctx_ = ctx;
+    go_.fetch_add(1, std::memory_order_release);
+    go_.notify_one();
+  }
+  void wait() {
+    const std::uint32_t target = go_.load(std::memory_order_relaxed);
+    for (int i = 0; i < 20000; ++i)
+      if (done_.load(std::memory_order_acquire) == target) return;
+    for (std::uint32_t d = done_.load(std::memory_order_acquire); d != target;
+         d = done_.load(std::memory_order_acquire))
+      done_.wait(d);
+  }
+
+ private:
+  void loop() {
+    std::uint32_t seen = 0;
+    for (;;) {
+      std::uint32_t g = go_.load(std::memory_order_acquire);
+      for (int i = 0; i < 20000 && g == seen; ++i) g = go_.load(std::memory_order_acquire);
+      while (g == seen) {
+        go_.wait(seen);
+        g = go_.load(std::memory_order_acquire);
+      }
+      seen = g;
+      if (quit_.load()) return;
+      {
+        FlushDenormals ftz;
+        fn_(ctx_);
+      }
+      done_.store(seen, std::memory_order_release);
+      done_.notify_one();
+    }
+  }
+  void (*fn_)(void*) = nullptr;
+  void* ctx_ = nullptr;
+  std::atomic<std::uint32_t> go_{0}, done_{0};
+  std::atomic<bool> quit_{false};
+  std::thread thread_;
+};
+
+WorkerSlot::WorkerSlot() = default;
+WorkerSlot::~WorkerSlot() = default;
+WorkerSlot::WorkerSlot(const WorkerSlot&) {}
+WorkerSlot& WorkerSlot::operator=(const WorkerSlot&) { return *this; }
+WorkerSlot::WorkerSlot(WorkerSlot&&) noexcept = default;
+WorkerSlot& WorkerSlot::operator=(WorkerSlot&&) noexcept = default;
+Worker& WorkerSlot::get() {
+  if (!worker_) worker_ = std::make_unique<Worker>();
+  return *worker_;
+}
+
+}  // namespace detail
+
 // ---- the model's view of the state --------------------------------------------
 
 namespace {
@@ -127,6 +203,7 @@ void ensureCache(State& s) {
   for (std::size_t i = 0; i < n; ++i)
     if (c.invMass[i] == 0.0) vel.vector()[i].setZero();
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb}) buf->assign(n, Vec3::Zero());
+  c.forceZero = true;
   c.topologyVersion = m.topologyVersion();
   ++c.rebuilds;
   s.energyBudget = std::numeric_limits<double>::quiet_NaN();  // cuts change the energy
@@ -148,10 +225,10 @@ View makeView(const Params& p, const State& s) {
   return w;
 }
 
-// Spring forces scattered into f (which must be zeroed); returns their energy.
-double springForces(const View& w, const Vec3* x, Vec3* f) {
+// Spring forces of springs [begin, end) scattered into f; returns their energy.
+double springRange(const View& w, const Vec3* x, Vec3* f, std::size_t begin, std::size_t end) {
   double pe = 0.0;
-  for (std::size_t s = 0; s < w.nSprings; ++s) {
+  for (std::size_t s = begin; s < end; ++s) {
     const Spring& sp = w.springs[s];
     const Vec3 d = x[sp.j] - x[sp.i];
     const double l = d.norm();
@@ -165,6 +242,9 @@ double springForces(const View& w, const Vec3* x, Vec3* f) {
   }
   return pe;
 }
+
+// All spring forces scattered into f (which must be zeroed); returns their energy.
+double springForces(const View& w, const Vec3* x, Vec3* f) { return springRange(w, x, f, 0, w.nSprings); }
 
 // Full force (damping with v unless v is null); returns spring + home energy.
 double totalForces(const View& w, const Vec3* x, const Vec3* v, Vec3* f) {
@@ -249,6 +329,7 @@ double nextBudget(const StabilityOptions& o, double budget, const Check& c, E0 e
 // ---- integrators: (x0, v0) → (x1, v1); return the energy at (x0, v0) ------------
 
 E0 explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+  c.forceZero = false;
   const double pe = totalForces(w, x0, v0, c.f.data());
   for (std::size_t i = 0; i < w.n; ++i) {
     x1[i] = x0[i] + dt * v0[i];
@@ -257,13 +338,13 @@ E0 explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* 
   return {pe, kinetic(w, v0)};
 }
 
-E0 symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
-  Vec3* f = c.f.data();
-  for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
-  double pe = springForces(w, x0, f);
-  double ke = 0.0;
+// The symplectic step's vertex pass over [begin, end): consumes f (and zeroes it for
+// the next step), returns the home energy and the kinetic energy at v0.
+E0 symplecticVertices(const View& w, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, Vec3* f, double dt,
+                      std::size_t begin, std::size_t end) {
+  double pe = 0.0, ke = 0.0;
   const double damp = 1.0 - dt * w.c;
-  for (std::size_t i = 0; i < w.n; ++i) {
+  for (std::size_t i = begin; i < end; ++i) {
     const double im = w.invMass[i];
     const Vec3 dh = x0[i] - w.home[i];
     pe += 0.5 * w.homeK * dh.squaredNorm();
@@ -271,16 +352,69 @@ E0 symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3
     if (im == 0.0) {
       x1[i] = x0[i];
       v1[i].setZero();
-      continue;
+    } else {
+      const Vec3 a = im * (f[i] + w.ext[i] - w.homeK * dh) + w.g;
+      v1[i] = damp * v0[i] + dt * a;
+      x1[i] = x0[i] + dt * v1[i];
     }
-    const Vec3 a = im * (f[i] + w.ext[i] - w.homeK * dh) + w.g;
-    v1[i] = damp * v0[i] + dt * a;
-    x1[i] = x0[i] + dt * v1[i];
+    f[i].setZero();
   }
   return {pe, ke};
 }
 
+struct SymplecticJob {
+  const View* w;
+  const Vec3 *x0, *v0;
+  Vec3 *x1, *v1, *f;
+  double dt;
+  std::size_t sBegin, sEnd, vBegin, vEnd;
+  int phase;
+  double pe, ke;
+  static void run(void* p) {
+    auto* j = static_cast<SymplecticJob*>(p);
+    if (j->phase == 0) {
+      j->pe = springRange(*j->w, j->x0, j->f, j->sBegin, j->sEnd);
+    } else {
+      const E0 e = symplecticVertices(*j->w, j->x0, j->v0, j->x1, j->v1, j->f, j->dt, j->vBegin, j->vEnd);
+      j->pe = e.pe;
+      j->ke = e.ke;
+    }
+  }
+};
+
+E0 symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
+                   int threads) {
+  Vec3* f = c.f.data();
+  if (!c.forceZero)
+    for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
+  E0 e;
+  if (threads < 2 || w.n < 2048) {
+    e.pe = springRange(w, x0, f, 0, w.nSprings);
+    const E0 ev = symplecticVertices(w, x0, v0, x1, v1, f, dt, 0, w.n);
+    e.pe += ev.pe;
+    e.ke = ev.ke;
+  } else {
+    // Phase 0: the two spring groups in parallel (they touch disjoint vertices), then
+    // the crossing springs here; phase 1: the two vertex halves in parallel.
+    detail::Worker& worker = c.worker.get();
+    SymplecticJob job{&w, x0, v0, x1, v1, f, dt, c.splitA, c.splitB, c.splitVertex, w.n, 0, 0.0, 0.0};
+    worker.start(&SymplecticJob::run, &job);
+    e.pe = springRange(w, x0, f, 0, c.splitA);
+    worker.wait();
+    e.pe += job.pe + springRange(w, x0, f, c.splitB, w.nSprings);
+    job.phase = 1;
+    worker.start(&SymplecticJob::run, &job);
+    const E0 ev = symplecticVertices(w, x0, v0, x1, v1, f, dt, 0, c.splitVertex);
+    worker.wait();
+    e.pe += ev.pe + job.pe;
+    e.ke = ev.ke + job.ke;
+  }
+  c.forceZero = true;
+  return e;
+}
+
 E0 verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+  c.forceZero = false;
   const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
   for (std::size_t i = 0; i < w.n; ++i) {
     v1[i] = v0[i] + (0.5 * dt * w.invMass[i]) * c.f[i];  // half kick (v1 holds v_half)
@@ -294,6 +428,7 @@ E0 verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec
 }
 
 E0 rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+  c.forceZero = false;
   const std::size_t n = w.n;
   for (auto* b : {&c.k1x, &c.k1v, &c.k2x, &c.k2v, &c.k3x, &c.k3v, &c.k4x, &c.k4v, &c.xt, &c.vt}) b->resize(n);
   auto deriv = [&](const Vec3* x, const Vec3* v, std::vector<Vec3>& kx, std::vector<Vec3>& kv) {
@@ -330,6 +465,7 @@ E0 rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* 
 // (M(1 + dt·c) − dt²·J) Δv = dt·(f0 + dt·J·v0);  v1 = v0 + Δv;  x1 = x0 + dt·v1.
 E0 implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
                  double dt) {
+  c.forceZero = false;
   const std::size_t n = w.n;
   const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
   using Trip = Eigen::Triplet<double>;
@@ -396,7 +532,7 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
     case Method::ExplicitEuler:
       return explicitEuler(w, c, x0, v0, x1, v1, dt);
     case Method::SymplecticEuler:
-      return symplecticEuler(w, c, x0, v0, x1, v1, dt);
+      return symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads);
     case Method::Verlet:
       return verlet(w, c, x0, v0, x1, v1, dt);
     case Method::Rk4:

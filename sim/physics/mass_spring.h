@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -89,6 +90,23 @@ struct Energy {
 };
 
 namespace detail {
+class Worker;  // a helper thread for the two-thread step (mass_spring.cpp)
+// Owns the helper thread; copying a state gives the copy no thread (it starts its own
+// when it needs one).
+class WorkerSlot {
+ public:
+  WorkerSlot();
+  ~WorkerSlot();
+  WorkerSlot(const WorkerSlot&);
+  WorkerSlot& operator=(const WorkerSlot&);
+  WorkerSlot(WorkerSlot&&) noexcept;
+  WorkerSlot& operator=(WorkerSlot&&) noexcept;
+  Worker& get();
+
+ private:
+  std::unique_ptr<Worker> worker_;
+};
+
 struct Spring {
   std::uint32_t i, j;
   double rest, k;
@@ -99,7 +117,12 @@ struct Spring {
 struct Cache {
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
   std::size_t nVertexSlots = 0;
+  // Springs grouped for two threads: [0, splitA) join vertices below splitVertex,
+  // [splitA, splitB) vertices at or above it, [splitB, end) cross the split.
   std::vector<Spring> springs;
+  std::size_t splitA = 0, splitB = 0, splitVertex = 0;
+  bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
+  WorkerSlot worker;
   std::vector<double> invMass;  // 0 for deleted vertices (they never move)
   std::vector<double> mass;
   // Scratch (kept to avoid allocations per step).

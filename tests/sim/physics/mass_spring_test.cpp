@@ -387,3 +387,24 @@ TEST(MassSpring, CacheFollowsTopologyEdits) {
 
 }  // namespace
 }  // namespace ld::physics
+
+namespace ld::physics {
+namespace {
+
+TEST(MassSpring, TwoThreadsGiveTheSameStepAsOne) {
+  Params one;
+  State a = makeState(makeGrid(50, 50, 4.0), one.tissue);
+  a.mesh.position(nearestVertex(a.mesh, Eigen::Vector3d(100, 100, 0))).z() -= 5.0;
+  State b = a;
+  Params two = one;
+  two.threads = 2;
+  for (int i = 0; i < 20; ++i) {
+    step(one, a, 1e-3);
+    step(two, b, 1e-3);
+  }
+  EXPECT_EQ(a.mesh.positions(), b.mesh.positions());
+  EXPECT_GT(testutil::maxDiff(a.mesh.positions(), makeState(makeGrid(50, 50, 4.0), one.tissue).mesh.positions()), 0.1);
+}
+
+}  // namespace
+}  // namespace ld::physics
