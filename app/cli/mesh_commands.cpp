@@ -1,8 +1,93 @@
-// lapdissect-cli mesh ...: not implemented yet.
+// lapdissect-cli mesh info FILE | mesh convert IN OUT   (contract in DESIGN.md)
+// Both take `--weld on` to merge equal points in every format (STL always is).
+#include <cmath>
+#include <string>
+
 #include "app/cli/cli.h"
+#include "sim/io/mesh_formats.h"
+#include "sim/io/mesh_io.h"
 
 namespace ld::cli {
+namespace {
 
-int runMesh(const Args&) { throw CliError(kInternal, "'mesh' is not implemented yet"); }
+io::ReadOptions readOptions(const Args& args) {
+  const std::string w = args.get("weld", "off");
+  if (w != "on" && w != "off") throw CliError(kBadInput, "option --weld: expected 'on' or 'off', found '" + w + "'");
+  return io::ReadOptions{w == "on"};
+}
+
+nlohmann::json vec(const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
+
+int info(const Args& args) {
+  const std::string file = args.pos(1, "FILE (mesh info FILE)");
+  io::ImportReport rep;
+  // Facts come from the processed soup, not from the SurfaceMesh, so that what the
+  // mesh cannot hold (edges with three faces) is still reported.
+  const io::TriangleSoup soup = io::readSoup(file, readOptions(args), &rep);
+  const io::MeshStats st = io::computeStats(soup);
+  nlohmann::json j;
+  j["file"] = file;
+  j["format"] = rep.format;
+  if (rep.vrmlVersion) j["vrml_version"] = rep.vrmlVersion;
+  j["vertices"] = st.vertices;
+  j["triangles"] = st.triangles;
+  j["edges"] = st.edges;
+  j["boundary_edges"] = st.boundaryEdges;
+  j["components"] = st.components;
+  j["manifold"] = st.manifold;
+  j["closed"] = st.closed;
+  j["area"] = st.area;
+  j["bbox"] = nlohmann::json::array({vec(st.bboxMin), vec(st.bboxMax)});
+  j["non_manifold_edges"] = st.nonManifoldEdges;
+  j["non_manifold_vertices"] = st.nonManifoldVertices;
+  j["degenerate_faces"] = st.degenerateFaces;
+  j["consistently_oriented"] = st.consistentlyOriented;
+  j["euler"] = st.euler;
+  // Genus summed over components; defined for closed manifold surfaces only.
+  if (st.closed && st.manifold) j["genus"] = (2 * static_cast<long>(st.components) - st.euler) / 2;
+  j["welded_vertices"] = rep.weldedVertices;
+  j["dropped_vertices"] = rep.droppedVertices;
+  j["dropped_faces"] = rep.droppedPolygons;
+  j["flipped_faces"] = rep.flippedFaces;
+  j["warnings"] = rep.warnings;
+  printJson(j);
+  return kOk;
+}
+
+int convert(const Args& args) {
+  const std::string in = args.pos(1, "IN (mesh convert IN OUT)");
+  const std::string out = args.pos(2, "OUT (mesh convert IN OUT)");
+  const auto outFormat = io::formatFromPath(out);
+  if (!outFormat || *outFormat == io::Format::Stl || *outFormat == io::Format::Off)
+    throw CliError(kBadInput, out + ": cannot export this format (use .obj, .ply or .wrl)");
+  io::ImportReport rep;
+  const mesh::SurfaceMesh m = io::readMesh(in, readOptions(args), &rep);
+  io::writeMesh(m, out);
+  nlohmann::json j;
+  j["in"] = in;
+  j["out"] = out;
+  j["vertices"] = m.nVertices();
+  j["triangles"] = m.nFaces();
+  j["degenerate_faces_left_out"] = rep.degenerateFaces;
+  j["duplicated_vertices"] = rep.duplicatedVertices;
+  j["warnings"] = rep.warnings;
+  printJson(j);
+  return kOk;
+}
+
+}  // namespace
+
+int runMesh(const Args& args) {
+  const std::string sub = args.pos(0, "mesh command (info or convert)");
+  try {
+    if (sub == "info") return info(args);
+    if (sub == "convert") return convert(args);
+  } catch (const io::ParseError& e) {
+    throw CliError(kBadInput, e.what());
+  } catch (const io::IoError& e) {
+    throw CliError(kBadInput, e.what());
+  }
+  throw CliError(kBadInput, "unknown mesh command '" + sub + "' (expected info or convert)");
+}
 
 }  // namespace ld::cli

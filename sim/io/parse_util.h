@@ -66,6 +66,9 @@ class Scanner {
       skipBlanks();
       if (pos_ >= s_.size()) return {};
       if (s_[pos_] == '\n') {
+        // The final newline does not start a line: errors at the end of the input name
+        // the file's last line.
+        if (pos_ + 1 >= s_.size()) return {};
         ++pos_;
         ++line_;
         continue;
@@ -78,7 +81,7 @@ class Scanner {
     while (pos_ < s_.size() && s_[pos_] != '\n') ++pos_;
     if (pos_ < s_.size()) {
       ++pos_;
-      ++line_;
+      if (pos_ < s_.size()) ++line_;  // see next(): the final newline starts no line
     }
   }
   // Rest of the current line (without comment handling), then moves past it.

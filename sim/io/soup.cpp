@@ -57,6 +57,9 @@ double triArea(const TriangleSoup& s, const Triangle& t) {
   return 0.5 * (s.points[t[1]] - s.points[t[0]]).cross(s.points[t[2]] - s.points[t[0]]).norm();
 }
 
+// The mesh rejects faces of zero or non-finite area (huge coordinates overflow).
+bool usableArea(double a) { return a > 0 && std::isfinite(a); }
+
 void warn(ImportReport* r, const std::string& src, const std::string& msg) {
   if (r) r->warnings.push_back(src + ":0: " + msg);
 }
@@ -230,7 +233,7 @@ MeshStats computeStats(const TriangleSoup& soup) {
   for (const auto& t : tris) {
     const double a = triArea(soup, t);
     st.area += a;
-    if (!(a > 0)) ++st.degenerateFaces;
+    if (!usableArea(a)) ++st.degenerateFaces;
   }
   const auto h = sortedHalfEdges(tris);
   UnionFind corners(3 * tris.size());
@@ -298,7 +301,7 @@ mesh::SurfaceMesh buildMesh(const TriangleSoup& soup, ImportReport* report) {
     return false;
   };
   for (const auto& t : soup.triangles) {
-    if (!(triArea(soup, t) > 0)) {
+    if (!usableArea(triArea(soup, t))) {
       ++degenerate;
       continue;
     }

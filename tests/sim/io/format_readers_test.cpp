@@ -231,7 +231,7 @@ TEST(OffReader, CountsOnHeaderLineAndMissingHeaderWarns) {
 TEST(OffReader, Malformed) {
   const auto err = [](const std::string& t) { return parseErrorOf([&] { parseOff(t, "bad.off"); }); };
   EXPECT_THAT(err("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n"),
-              HasSubstr("bad.off:6: unexpected end of file: 3 of 4 vertices"));
+              HasSubstr("bad.off:5: unexpected end of file: 3 of 4 vertices"));
   EXPECT_THAT(err("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), HasSubstr("1 of 2 faces read"));
   EXPECT_THAT(err("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"), HasSubstr("bad.off:6: vertex index 3 out of range"));
   EXPECT_THAT(err("OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n"),
