@@ -328,13 +328,31 @@ TEST_P(StoreTest, StoresArgon2idHashesAndNoPassword) {
   const std::string hash = raw.scalar("SELECT password_hash FROM users WHERE name = 'kim'").toString().toStdString();
   EXPECT_EQ(hash.rfind("$argon2id$", 0), 0u) << hash;
   EXPECT_EQ(hash.find(secret), std::string::npos);
+  if (!tdb.sqlite() && std::getenv("LD_PG_DIR")) {
+    // Every file of the server (data, WAL, log) after a checkpoint.
+    raw.exec("CHECKPOINT");
+    std::size_t files = 0;
+    bool sawHash = false;
+    for (const auto& e : std::filesystem::recursive_directory_iterator(std::getenv("LD_PG_DIR"))) {
+      if (!e.is_regular_file()) continue;
+      ++files;
+      const std::string bytes = ld::test::slurpFile(e.path());
+      EXPECT_EQ(bytes.find(secret), std::string::npos) << e.path();
+      sawHash |= bytes.find(hash) != std::string::npos;
+    }
+    EXPECT_GT(files, 100u);
+    EXPECT_TRUE(sawHash) << "the scan did not reach the table data";
+  }
   if (tdb.sqlite()) {
     // Every byte on disk: the file and any journal next to it.
+    bool sawHash = false;
     for (const auto& e : std::filesystem::directory_iterator(tdb.dir())) {
       const std::string bytes = ld::test::slurpFile(e.path());
       EXPECT_EQ(bytes.find(secret), std::string::npos) << e.path();
       EXPECT_EQ(bytes.find("admin-password"), std::string::npos) << e.path();
+      sawHash |= bytes.find(hash) != std::string::npos;
     }
+    EXPECT_TRUE(sawHash) << "the scan did not reach the table data";
   }
 }
 
