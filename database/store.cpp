@@ -257,6 +257,11 @@ struct Store::Impl {
     Tx tx(*this);
     int v = readVersion();  // again, under the lock: another workstation may have migrated
     if (v > schema::latestVersion()) tooNew(v);
+    if (v >= target) {
+      tx.commit();
+      version = v;
+      return;
+    }
     const int from = v;
     if (v < 0) {
       execRaw("CREATE TABLE ld_schema (version INTEGER NOT NULL)");
@@ -407,8 +412,13 @@ Store Store::open(const std::string& url, Options options) {
     if (!fi.exists()) {
       QDir().mkpath(fi.absolutePath());
       const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-      if (fd < 0) throw DbError(path + ": cannot create the database file: " + std::strerror(errno));
-      ::close(fd);
+      if (fd >= 0) {
+        ::close(fd);
+      } else if (errno == EEXIST) {
+        checkSqliteFile(path);  // another process created it just now
+      } else {
+        throw DbError(path + ": cannot create the database file: " + std::strerror(errno));
+      }
     } else {
       checkSqliteFile(path);
     }

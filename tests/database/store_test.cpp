@@ -2,6 +2,10 @@
 #include "database/store.h"
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
 
 #include <algorithm>
 #include <cmath>
@@ -122,6 +126,36 @@ TEST_P(StoreTest, MigratesFromEveryEarlierVersionKeepingTheData) {
     RawDb raw(tdb.url());
     EXPECT_DOUBLE_EQ(raw.scalar("SELECT deviation_total FROM attempts WHERE task_id = 'cut-line'").toDouble(), 99.5);
   }
+}
+
+// Several workstations (processes) starting at once on a new database: one migrates.
+TEST_P(StoreTest, ConcurrentFirstOpensMigrateOnce) {
+  LD_OPEN_TEST_DB(tdb, GetParam());
+  std::vector<pid_t> kids;
+  for (int i = 0; i < 4; ++i) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      int rc = 0;
+      try {
+        Store st = Store::open(tdb.url(), fastOptions());
+        rc = st.schemaVersion() == Store::latestSchemaVersion() ? 0 : 3;
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "child %d: %s\n", i, e.what());
+        rc = 2;
+      }
+      std::fflush(stderr);
+      ::_exit(rc);
+    }
+    kids.push_back(pid);
+  }
+  for (pid_t k : kids) {
+    int status = 0;
+    ::waitpid(k, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "a concurrent open failed";
+  }
+  RawDb raw(tdb.url());
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM audit_log WHERE action = 'schema.migrate'").toInt(), 1);
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM ld_schema").toInt(), 1);
 }
 
 TEST_P(StoreTest, RefusesANewerSchemaAndLeavesItUntouched) {
