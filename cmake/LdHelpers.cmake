@@ -32,10 +32,13 @@ function(ld_add_gtest name)
   if(NOT A_LABELS)
     set(A_LABELS unit)
   endif()
-  gtest_discover_tests(${name}
-    PROPERTIES LABELS "${A_LABELS}"
-    ENVIRONMENT "LD_SHARED_DATA=${LD_SHARED_DATA_DIR};LD_RESOURCES=${LD_RESOURCES_DIR}"
-    DISCOVERY_TIMEOUT 60)
+  # gtest_discover_tests splits list-valued PROPERTIES, so labels and environment are
+  # set from an include file that runs after discovery.
+  gtest_discover_tests(${name} TEST_LIST ${name}_TESTS DISCOVERY_TIMEOUT 60)
+  file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/${name}_props.cmake
+    "if(${name}_TESTS)\n  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${A_LABELS}\"\n"
+    "    ENVIRONMENT \"LD_SHARED_DATA=${LD_SHARED_DATA_DIR};LD_RESOURCES=${LD_RESOURCES_DIR}\")\nendif()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${CMAKE_CURRENT_BINARY_DIR}/${name}_props.cmake)
 endfunction()
 
 # ld_add_benchmark(NAME SOURCES ... LIBS ...): a Google Benchmark program (not a test).

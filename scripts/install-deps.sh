@@ -7,7 +7,7 @@ pkgs=(
   libqt6sql6-sqlite libqt6sql6-psql qt6-svg-dev libgl-dev
   libeigen3-dev libsodium-dev libassimp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcgal-dev libgmp-dev libmpfr-dev
-  postgresql xvfb xauth libgl1-mesa-dri clang libclang-rt-14-dev sqlite3 zlib1g-dev
+  postgresql xvfb xauth libgl1-mesa-dri clang libclang-rt-14-dev sqlite3 libsqlite3-dev zlib1g-dev
 )
 missing=()
 for p in "${pkgs[@]}"; do
