@@ -216,7 +216,7 @@ QChart* makeChart(const Panel& panel) {
 }
 
 void savePanels(const std::vector<Panel>& panels, const QString& title, const std::filesystem::path& file) {
-  const int w = 720, h = 580, head = 40;
+  const int w = 720, h = 560, head = 40;
   QImage img(w * static_cast<int>(panels.size()), h + head, QImage::Format_ARGB32);
   img.fill(Qt::white);
   QPainter painter(&img);

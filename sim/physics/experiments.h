@@ -36,7 +36,7 @@ struct BenchResult {
   Method method = Method::SymplecticEuler;
   double dt = 0, duration = 0;
   std::uint64_t steps = 0;
-  double usPerStep = 0;
+  double usPerStep = 0;               // CPU time of the process per step
   double errorRms = 0, errorMax = 0;  // [mm] over all vertices and checkpoints
   bool stable = true;                 // finite, no energy blow-up
   std::uint64_t warnings = 0;         // stability monitor warnings (when it was on)
