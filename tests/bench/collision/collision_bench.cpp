@@ -4,10 +4,14 @@
 //   bench/collision_bench --benchmark_min_time=0.2
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <random>
 #include <vector>
 
 #include "sim/collision/bvh.h"
+#include "sim/collision/collision_world.h"
+#include "sim/collision/swept.h"
+#include "sim/collision/walk.h"
 #include "tests/sim/collision/test_meshes.h"
 
 namespace {
@@ -61,6 +65,92 @@ void BM_BvhSegmentQuery100k(benchmark::State& st) {
   st.counters["tris_per_query"] = static_cast<double>(qc.faces) / static_cast<double>(segs.size());
 }
 BENCHMARK(BM_BvhSegmentQuery100k)->Unit(benchmark::kMicrosecond);
+
+// A stroke as the loop sees it: the blade moves `range(0)` micrometres per sample
+// along a wavy path across the slab (100 um = 100 mm/s at 1 kHz).
+std::vector<std::pair<Vector3d, Vector3d>> stroke(double stepMm, std::size_t n) {
+  std::vector<std::pair<Vector3d, Vector3d>> s;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = 10.0 + std::fmod(stepMm * static_cast<double>(i), 138.0);
+    const Vector3d tip(x, 79.0 + 20.0 * std::sin(x / 15.0), -7.0);  // below the slab, edge up through both layers
+    const Vector3d dir = Vector3d(0.3 * std::cos(x / 9.0), 0.2, -1.0).normalized();
+    s.emplace_back(tip, tip - 20.0 * dir);
+  }
+  return s;
+}
+
+void BM_BvhSegmentQueryStroke100k(benchmark::State& st) {
+  const SurfaceMesh& m = slab100k();
+  const TriangleBvh bvh(m);
+  const auto segs = stroke(static_cast<double>(st.range(0)) * 1e-3, 4096);
+  std::vector<ld::collision::SurfaceHit> hits;
+  std::size_t i = 0, total = 0;
+  for (auto _ : st) {
+    const auto& [a, b] = segs[i++ & 4095];
+    bvh.intersectSegment(m, a, b, hits);
+    total += hits.size();
+  }
+  st.counters["hits_per_query"] = static_cast<double>(total) / static_cast<double>(st.iterations());
+}
+BENCHMARK(BM_BvhSegmentQueryStroke100k)->Arg(100)->ArgName("step_um")->Unit(benchmark::kMicrosecond);
+
+// The thesis's fast path: the 1-ring of the last hit face.
+void BM_NeighbourhoodQueryStroke100k(benchmark::State& st) {
+  const SurfaceMesh& m = slab100k();
+  const TriangleBvh bvh(m);
+  const auto segs = stroke(0.1, 4096);
+  std::vector<ld::collision::SurfaceHit> hits;
+  hits = bvh.intersectSegment(m, segs[0].first, segs[0].second);
+  ld::mesh::Face last = hits.back().face;  // the top layer
+  std::size_t i = 1, found = 0;
+  for (auto _ : st) {
+    const auto& [a, b] = segs[i++ & 4095];
+    ld::collision::intersectNeighbourhood(m, last, a, b, hits);
+    if (!hits.empty()) {
+      last = hits.back().face;
+      ++found;
+    } else {
+      st.PauseTiming();
+      hits = bvh.intersectSegment(m, a, b);
+      last = hits.back().face;
+      st.ResumeTiming();
+    }
+  }
+  st.counters["found_locally"] = static_cast<double>(found) / static_cast<double>(st.iterations());
+}
+BENCHMARK(BM_NeighbourhoodQueryStroke100k)->Unit(benchmark::kMicrosecond);
+
+void BM_SweepStroke100k(benchmark::State& st) {
+  const SurfaceMesh& m = slab100k();
+  const TriangleBvh bvh(m);
+  const auto segs = stroke(static_cast<double>(st.range(0)) * 1e-3, 4096);
+  std::size_t i = 0, faces = 0;
+  for (auto _ : st) {
+    const std::size_t k = i++ % 4095;
+    const auto c =
+        ld::collision::sweepSegment(m, &bvh, segs[k].first, segs[k].second, segs[k + 1].first, segs[k + 1].second);
+    faces += c.faces.size();
+  }
+  st.counters["faces_per_sweep"] = static_cast<double>(faces) / static_cast<double>(st.iterations());
+}
+BENCHMARK(BM_SweepStroke100k)->Arg(100)->Arg(2000)->ArgName("step_um")->Unit(benchmark::kMicrosecond);
+
+void BM_WorldScalpelQuery100k(benchmark::State& st) {
+  const SurfaceMesh& m = slab100k();
+  ld::collision::CollisionWorld world;
+  world.add(m);
+  const auto segs = stroke(0.1, 4096);
+  std::size_t i = 0;
+  for (auto _ : st) {
+    const auto& [a, b] = segs[i++ & 4095];
+    ld::instruments::Pose p;
+    p.tip = a;
+    p.dir = (a - b).normalized();
+    p.up = p.dir.unitOrthogonal();
+    benchmark::DoNotOptimize(world.query(ld::instruments::Tool::Scalpel, p));
+  }
+}
+BENCHMARK(BM_WorldScalpelQuery100k)->Unit(benchmark::kMicrosecond);
 
 void BM_BruteForceSegmentQuery100k(benchmark::State& st) {
   const SurfaceMesh& m = slab100k();

@@ -77,7 +77,7 @@ TEST(TriangleBvh, QueriesEqualBruteForceOnSeveralMeshes) {
   SegmentSource src(7);
   for (const SurfaceMesh& m : {testing::icosphere(3), testing::slab(12, 1.0, 3.0), testing::grid(20, 0.5)}) {
     const TriangleBvh bvh(m);
-    expectBvhMatchesBruteForce(m, bvh, src, 1500);
+    expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(800));
   }
 }
 
@@ -124,7 +124,7 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
         meshKind == 0 ? testing::icosphere(2) : (meshKind == 1 ? testing::slab(6, 1.0, 2.0) : testing::grid(8));
     TriangleBvh bvh(m);
     int local = 0, rebuilt = 0;
-    for (int step = 0; step < 300; ++step) {
+    for (int step = 0; step < testing::scaled(300); ++step) {
       const int op = static_cast<int>(rng() % 10);
       if (op < 4) {  // split an edge
         mesh::Edge e(static_cast<std::uint32_t>(rng() % m.edgesSize()));
@@ -160,10 +160,10 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
       local += r == SyncResult::Local;
       rebuilt += r == SyncResult::Rebuilt;
       ASSERT_EQ(bvh.check(m), "") << "step " << step;
-      if (step % 10 == 0) expectBvhMatchesBruteForce(m, bvh, src, 40);
+      if (step % 20 == 0) expectBvhMatchesBruteForce(m, bvh, src, 20);
     }
-    expectBvhMatchesBruteForce(m, bvh, src, 300);
-    EXPECT_GT(local, 100) << "edits should be absorbed locally";
+    expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(200));
+    EXPECT_GT(local, testing::scaled(300) / 3) << "edits should be absorbed locally";
     // Compaction renumbers faces: the tree notices and rebuilds.
     if (m.hasGarbage()) {
       m.garbageCollection();
@@ -180,7 +180,7 @@ TEST(TriangleBvh, LocalInsertionSplitsLeavesAndKeepsDepthBounded) {
   // Hammer one face with splits: all new faces land in the same neighbourhood.
   std::mt19937_64 rng(3);
   Face f(0);
-  for (int i = 0; i < 2000; ++i) {
+  for (int i = 0; i < testing::scaled(1200); ++i) {
     const auto& vs = m.vertices(f);
     const Vector3d p = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
     m.splitFace(f, p);
@@ -190,7 +190,7 @@ TEST(TriangleBvh, LocalInsertionSplitsLeavesAndKeepsDepthBounded) {
   EXPECT_EQ(bvh.check(m), "");
   EXPECT_LE(bvh.stats().maxDepth, TriangleBvh::kMaxDepth);
   SegmentSource src(5);
-  expectBvhMatchesBruteForce(m, bvh, src, 300);
+  expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(300));
 }
 
 TEST(TriangleBvh, MisuseThrows) {

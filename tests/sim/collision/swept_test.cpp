@@ -96,7 +96,7 @@ TEST(Swept, BvhAndBruteForceAgreeAndDenseSamplingIsCoveredForRandomMotions) {
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   for (const auto& m : {testing::slab(6, 1.0, 2.0), testing::icosphere(2, 2.0)}) {
     const TriangleBvh bvh(m);
-    for (int i = 0; i < 40; ++i) {
+    for (int i = 0; i < testing::scaled(40); ++i) {
       const Vector3d c(3 * U(rng) + (m.bounds().center().x()), 3 * U(rng) + m.bounds().center().y(), U(rng));
       const Vector3d dir = Vector3d(0.4 * U(rng), 0.4 * U(rng), -1).normalized();
       const Vector3d a0 = c - 2.5 * dir, b0 = c + 2.5 * dir;

@@ -9,6 +9,16 @@
 
 namespace ld::collision::testing {
 
+// Iteration counts of the randomised tests: a quarter under AddressSanitizer, so the
+// CI sanitizer job stays short (the Release run does the full count).
+inline int scaled(int n) {
+#if defined(__SANITIZE_ADDRESS__)
+  return n / 4 > 0 ? n / 4 : 1;
+#else
+  return n;
+#endif
+}
+
 // An n x n grid of squares of size h in the plane z = z0, split along a diagonal,
 // normals +z (or -z when flipped).
 inline void addGrid(mesh::SurfaceMesh& m, int n, double h, double z0, bool flipped = false) {

@@ -60,7 +60,7 @@ TEST(Walk, WalkAcrossEdgesReachesTheHitOfBruteForce) {
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> U(0.1, 9.9);
   const auto m = testing::grid(10);
-  for (int i = 0; i < 200; ++i) {
+  for (int i = 0; i < testing::scaled(200); ++i) {
     const Vector3d p(U(rng), U(rng), 0.0), tilt(0.3 * (U(rng) - 5) / 5, 0.3 * (U(rng) - 5) / 5, 0.0);
     const Vector3d a = p + Vector3d(0, 0, 1) + tilt, b = p - Vector3d(0, 0, 1) - tilt;
     const auto brute = intersectSegment(m, a, b);
