@@ -1,0 +1,1494 @@
+#include "sim/cutting/cutter.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <numeric>
+#include <unordered_set>
+
+#include "sim/collision/segment_triangle.h"
+
+namespace ld::cutting {
+
+using instruments::Hand;
+using instruments::Pose;
+using instruments::Tool;
+using mesh::Edge;
+using mesh::Face;
+using mesh::SurfaceMesh;
+using mesh::Vertex;
+using Vec3 = Eigen::Vector3d;
+
+namespace {
+
+bool dbg() {
+  static bool d = std::getenv("LD_CUT_DEBUG") != nullptr;
+  return d;
+}
+
+constexpr const char* kApexProp = "v:cut_apex";
+
+int handIndex(Hand h) { return h == Hand::Left ? 0 : 1; }
+
+// One crossing of a cutting edge with a surface in the current sample.
+struct Hit {
+  int object = -1;
+  int segment = -1;
+  Face face;
+  Vec3 point = Vec3::Zero();
+  double t = 0.0;
+  int dir = 0;  // +1: the edge (a->b) enters the material here, -1: leaves it
+  Vec3 depth = Vec3::Zero();
+  bool used = false;
+};
+
+// One layer crossing followed through a stroke.
+struct Track {
+  int id = 0;
+  int object = -1;  // object id
+  int segment = -1;
+  int dir = 0;
+  bool alive = true;
+  // Before the first permanent vertex: the start point (pierce-in), not yet inserted.
+  bool hasStart = false;
+  Vec3 start = Vec3::Zero();
+  Vec3 startDepth = Vec3::Zero();
+  Vec3 startMotion = Vec3::Zero();  // the edge's motion when the track began
+  Vec3 startBlade = Vec3::Zero();
+  Face startFace;
+  // The cut so far ends at `tip`. The front of the opening runs from tip through
+  // `chain` (usually one vertex: the other layer's tip, or the groove's bottom);
+  // empty until the cut has an edge.
+  Vertex tip;
+  std::vector<Vertex> chain;
+  Vec3 tipDepth = Vec3::Zero();
+  // The blade's current point, inside a triangle next to tip (temporary).
+  bool hasPending = false;
+  Vec3 pending = Vec3::Zero();
+  Vec3 pendingDepth = Vec3::Zero();
+  int partner = -1;                    // track id of the other layer of a cut-through, or -1
+  std::unordered_set<Vertex> visited;  // path vertices, their copies and this cut's wall apexes
+};
+
+struct HandState {
+  bool hasPrev = false;
+  Tool tool = Tool::Scalpel;
+  Pose prev;
+  std::vector<Track> tracks;
+};
+
+double scaleOf(const Vec3& p) { return 1.0 + p.cwiseAbs().maxCoeff(); }
+
+Pose lerpPose(const Pose& a, const Pose& b, double s) {
+  Pose p = b;
+  p.tip = a.tip + s * (b.tip - a.tip);
+  Vec3 d = a.dir + s * (b.dir - a.dir);
+  if (d.norm() > 1e-12) p.dir = d.normalized();
+  Vec3 u = a.up + s * (b.up - a.up);
+  u -= u.dot(p.dir) * p.dir;
+  if (u.norm() > 1e-12) p.up = u.normalized();
+  return p;
+}
+
+}  // namespace
+
+struct CutEngine::Impl {
+  CutParams p;
+  std::vector<TissueObject> objects;
+  std::vector<bool> hasTissue;
+  int nextId = 0;
+  int nextTrackId = 0;
+  HandState hands[2];
+  CutStats stats;
+  StepResult* res = nullptr;
+  std::vector<int> checkSeparation;
+
+  // ---- object access -------------------------------------------------------------
+  int indexOf(int id) const {
+    for (std::size_t i = 0; i < objects.size(); ++i)
+      if (objects[i].id == id) return static_cast<int>(i);
+    return -1;
+  }
+  SurfaceMesh& meshOf(int id) { return objects[static_cast<std::size_t>(indexOf(id))].mesh; }
+  bool closedObject(int id) const {
+    const int i = indexOf(id);
+    return objects[static_cast<std::size_t>(i)].closedAtStart || p.wallsOnOpenMeshes;
+  }
+  bool tissue(int id) const { return hasTissue[static_cast<std::size_t>(indexOf(id))]; }
+
+  Track* trackById(int id) {
+    if (id < 0) return nullptr;
+    for (auto& h : hands)
+      for (auto& t : h.tracks)
+        if (t.id == id && t.alive) return &t;
+    return nullptr;
+  }
+
+  // ---- physics hooks ---------------------------------------------------------------
+  void touch(int obj, std::initializer_list<Vertex> vs) {
+    if (!tissue(obj)) return;
+    SurfaceMesh& m = meshOf(obj);
+    std::vector<Vertex> list;
+    for (Vertex v : vs) {
+      if (!m.isValid(v)) continue;
+      list.push_back(v);
+      for (Edge e : m.edges(v)) physics::initEdge(m, e, p.tissue);
+    }
+    physics::redistributeMass(m, list, p.tissue);
+  }
+
+  // ---- geometry helpers --------------------------------------------------------------
+  static Vec3 rawNormal(const SurfaceMesh& m, Face f) {
+    const auto& v = m.vertices(f);
+    return (m.position(v[1]) - m.position(v[0])).cross(m.position(v[2]) - m.position(v[0]));
+  }
+
+  // Point within the triangle (on its plane up to rounding).
+  static bool pointInFace(const SurfaceMesh& m, Face f, const Vec3& P, double baryTol = 1e-9) {
+    const auto& v = m.vertices(f);
+    const Vec3 &a = m.position(v[0]), &b = m.position(v[1]), &c = m.position(v[2]);
+    const Vec3 n = (b - a).cross(c - a);
+    const double n2 = n.squaredNorm();
+    if (!(n2 > 0.0)) return false;
+    const double nl = std::sqrt(n2);
+    const double dist = std::abs(n.dot(P - a)) / nl;
+    const double sc = std::max({scaleOf(a), scaleOf(b), scaleOf(c), scaleOf(P)});
+    if (dist > 1e-7 * sc + 1e-3 * std::sqrt(nl)) return false;
+    const double l0 = n.dot((b - P).cross(c - P)) / n2;
+    const double l1 = n.dot((c - P).cross(a - P)) / n2;
+    const double l2 = 1.0 - l0 - l1;
+    return l0 >= -baryTol && l1 >= -baryTol && l2 >= -baryTol;
+  }
+
+  static Vec3 barycentric(const SurfaceMesh& m, Face f, const Vec3& P) {
+    const auto& v = m.vertices(f);
+    const Vec3 &a = m.position(v[0]), &b = m.position(v[1]), &c = m.position(v[2]);
+    const Vec3 n = (b - a).cross(c - a);
+    const double n2 = n.squaredNorm();
+    if (!(n2 > 0.0)) return Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3);
+    const double l0 = n.dot((b - P).cross(c - P)) / n2;
+    const double l1 = n.dot((c - P).cross(a - P)) / n2;
+    return Vec3(l0, l1, 1.0 - l0 - l1);
+  }
+
+  // The face containing P: the hint, the faces around its corners, else all faces.
+  Face locate(const SurfaceMesh& m, Face hint, const Vec3& P) const {
+    if (m.isValid(hint) && pointInFace(m, hint, P)) return hint;
+    if (m.isValid(hint)) {
+      for (Vertex v : m.vertices(hint))
+        for (Face f : m.faces(v))
+          if (pointInFace(m, f, P)) return f;
+    }
+    Face best;
+    double bestD = 1e-6 * scaleOf(P);
+    for (Face f : m.faces()) {
+      if (pointInFace(m, f, P)) return f;
+      // Rounding may leave P a hair outside every face: take the closest one.
+      const Vec3 b = barycentric(m, f, P);
+      if (b.minCoeff() < -1e-6) continue;
+      const Vec3 n = rawNormal(m, f).normalized();
+      const double d = std::abs(n.dot(P - m.position(m.vertices(f)[0])));
+      if (d < bestD) {
+        bestD = d;
+        best = f;
+      }
+    }
+    return best;
+  }
+
+  double snapTolerance(double edgeLength) const { return std::max(p.snapDistance, p.snapFraction * edgeLength); }
+
+  // ---- elementary edits with hooks ------------------------------------------------------
+  Vertex splitEdgeAt(int obj, Edge e, const Vec3& q) {
+    SurfaceMesh& m = meshOf(obj);
+    const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+    const double L = (m.position(b) - m.position(a)).norm();
+    const double t = L > 0 ? std::clamp((q - m.position(a)).norm() / L, 0.0, 1.0) : 0.5;
+    const Vertex v = m.splitEdge(e, q);
+    if (tissue(obj)) {
+      physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
+      touch(obj, {v});
+    }
+    return v;
+  }
+
+  // Inserts P (inside f) as a vertex, snapping to a corner or an edge of f when closer
+  // than the snapping tolerance. Returns the vertex (possibly an existing one).
+  Vertex insertPoint(int obj, Face f, const Vec3& P) {
+    SurfaceMesh& m = meshOf(obj);
+    const auto v = m.vertices(f);
+    const auto e = m.edges(f);
+    double minEdge = 1e300;
+    for (int i = 0; i < 3; ++i) minEdge = std::min(minEdge, m.edgeLength(e[static_cast<std::size_t>(i)]));
+    const double tol = std::min(snapTolerance(minEdge), 0.3 * minEdge);
+    int bestV = -1;
+    double bestVD = tol;
+    for (int i = 0; i < 3; ++i) {
+      const double d = (m.position(v[static_cast<std::size_t>(i)]) - P).norm();
+      if (d <= bestVD) {
+        bestVD = d;
+        bestV = i;
+      }
+    }
+    if (bestV >= 0) return v[static_cast<std::size_t>(bestV)];
+    // Edge i joins corner i and i+1.
+    int bestE = -1;
+    double bestED = tol;
+    Vec3 proj = P;
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& a = m.position(v[static_cast<std::size_t>(i)]);
+      const Vec3& b = m.position(v[static_cast<std::size_t>((i + 1) % 3)]);
+      const double s = std::clamp((P - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      const Vec3 q = a + s * (b - a);
+      const double d = (q - P).norm();
+      if (d <= bestED) {
+        bestED = d;
+        bestE = i;
+        proj = q;
+      }
+    }
+    if (bestE >= 0) return splitEdgeAt(obj, e[static_cast<std::size_t>(bestE)], proj);
+    const Vec3 bary = barycentric(m, f, P);
+    const Vertex nv = m.splitFace(f, P);
+    if (tissue(obj)) {
+      physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
+      touch(obj, {nv});
+    }
+    return nv;
+  }
+
+  // ---- fans ---------------------------------------------------------------------------
+  // Faces around x grouped by connection through edges at x that are not in `cuts`.
+  static std::vector<std::vector<Face>> fanGroups(const SurfaceMesh& m, Vertex x, const std::vector<Edge>& cuts) {
+    const std::vector<Face> around = m.faces(x);
+    std::vector<int> parent(around.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](int i) {
+      while (parent[static_cast<std::size_t>(i)] != i) i = parent[static_cast<std::size_t>(i)];
+      return i;
+    };
+    auto index = [&](Face f) { return static_cast<int>(std::find(around.begin(), around.end(), f) - around.begin()); };
+    for (Edge e : m.edges(x)) {
+      if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
+      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
+      if (!f0.isValid() || !f1.isValid()) continue;
+      const int r0 = find(index(f0)), r1 = find(index(f1));
+      if (r0 != r1) parent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
+    }
+    std::vector<std::vector<Face>> groups;
+    std::vector<int> slot(around.size(), -1);
+    for (std::size_t i = 0; i < around.size(); ++i) {
+      const int r = find(static_cast<int>(i));
+      if (slot[static_cast<std::size_t>(r)] < 0) {
+        slot[static_cast<std::size_t>(r)] = static_cast<int>(groups.size());
+        groups.emplace_back();
+      }
+      groups[static_cast<std::size_t>(slot[static_cast<std::size_t>(r)])].push_back(around[i]);
+    }
+    return groups;
+  }
+
+  // Splits x so that every group of faces (separated by `cuts`) gets its own vertex.
+  std::vector<Vertex> splitByGroups(int obj, Vertex x, const std::vector<Edge>& cuts) {
+    SurfaceMesh& m = meshOf(obj);
+    std::vector<Vertex> made;
+    auto groups = fanGroups(m, x, cuts);
+    for (std::size_t g = 1; g < groups.size(); ++g) {
+      const Vertex nv = m.splitVertex(x, groups[g]);
+      if (!nv.isValid()) continue;
+      if (tissue(obj)) physics::initVertexCopy(m, nv, x, p.tissue);
+      made.push_back(nv);
+    }
+    return made;
+  }
+
+  void unpinch(int obj, Vertex x) {
+    SurfaceMesh& m = meshOf(obj);
+    if (!m.isValid(x)) return;
+    const auto made = splitByGroups(obj, x, {});
+    stats.unpinched += static_cast<long>(made.size());
+  }
+
+  Face addTriangle(int obj, Vertex a, Vertex b, Vertex c, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    Face f = m.addFace(a, b, c);
+    if (!f.isValid()) f = m.addFace(a, c, b);
+    if (f.isValid()) m.faceProperty<int>(kFaceKindProp, kSurface)[f] = kind;
+    return f;
+  }
+
+  // Fills the quad hole (x, n, y, o) with two triangles around o (apex invalid) or
+  // four around a new vertex at apexPos. Returns the apex used, invalid on failure.
+  Vertex fillQuad(int obj, Vertex x, Vertex n, Vertex y, Vertex o, bool newApex, const Vec3& apexPos, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    std::vector<Face> added;
+    auto rollback = [&]() {
+      for (Face f : added) m.deleteFace(f);
+      added.clear();
+    };
+    if (!newApex && !m.findEdge(n, o).isValid()) {
+      for (auto tri : {std::array<Vertex, 3>{x, n, o}, std::array<Vertex, 3>{n, y, o}}) {
+        const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+        if (!f.isValid()) break;
+        added.push_back(f);
+      }
+      if (added.size() == 2) return o;
+      rollback();
+    }
+    const Vec3 bestPos = apexPos;
+    const Vertex B = m.addVertex(bestPos);
+    for (auto tri : {std::array<Vertex, 3>{x, n, B}, std::array<Vertex, 3>{n, y, B}, std::array<Vertex, 3>{y, o, B},
+                     std::array<Vertex, 3>{o, x, B}}) {
+      const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+      if (!f.isValid()) break;
+      added.push_back(f);
+    }
+    if (added.size() == 4) {
+      m.vertexProperty<std::uint8_t>(kApexProp, 0)[B] = 1;
+      if (tissue(obj)) {
+        physics::initVertexCopy(m, B, n, p.tissue);
+        auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+        if (home) home[B] = home[n] + (bestPos - m.position(n));
+      }
+      return B;
+    }
+    rollback();
+    m.deleteVertex(B);
+    return Vertex();
+  }
+
+  // ---- the cut front ---------------------------------------------------------------------
+  // Vertices of the cut (path, copies, wall apexes) are shared by both layers of a cut-through.
+  void mark(Track& tr, Vertex v) {
+    tr.visited.insert(v);
+    if (Track* P = trackById(tr.partner)) P->visited.insert(v);
+  }
+
+  // Extends the track's cut from its tip to N (an edge (tip, N) exists): the old tip
+  // opens into two vertices (and so does the rest of a front chain that was not open
+  // yet), and the opening is closed at once with wall triangles.
+  bool extend(Track& tr, Vertex N, const Vec3& depthN) {
+    SurfaceMesh& m = meshOf(tr.object);
+    mark(tr, N);
+    if (!tr.tip.isValid()) {
+      tr.tip = N;
+      tr.tipDepth = depthN;
+      return true;
+    }
+    const Vertex v = tr.tip;
+    if (N == v) return true;
+    Track* P = trackById(tr.partner);
+    auto advanceTo = [&](std::vector<Vertex> chain) {
+      tr.chain = std::move(chain);
+      tr.tip = N;
+      tr.tipDepth = depthN;
+    };
+    if (tr.chain.empty()) {
+      if (P && P->tip == v) P->chain = {N};
+      advanceTo({v});
+      return true;
+    }
+    const std::vector<Vertex> chain = tr.chain;
+    const Vertex o = chain.front();
+    const Edge eOut = m.findEdge(v, N), eFront = m.findEdge(v, o);
+    if (!eOut.isValid() || !eFront.isValid() || std::find(chain.begin(), chain.end(), N) != chain.end()) {
+      advanceTo({v});
+      return true;
+    }
+    const bool walls = closedObject(tr.object);
+    const bool paired = P != nullptr;
+    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    const double thr = 0.5 * p.snapDistance;
+    // How to close the opening, decided on the geometry before anything changes:
+    //  Fan  - triangles from N over the front (v, chain...): two for a one-vertex front;
+    //  Apex - a new vertex (groove bottom at the blade's depth, or between the layers
+    //         when N and the front are already joined by an edge): four triangles.
+    // If neither gives triangles thicker than half the snapping distance (the blade has
+    // hardly moved off the front, e.g. right after a slide-in, or moves along itself),
+    // the front grows instead and opens with a later step.
+    enum class Fill { Fan, Apex, Defer } fill = Fill::Fan;
+    Vec3 apexPos = Vec3::Zero();
+    if (walls) {
+      const Vec3 pv = m.position(v), pN = m.position(N);
+      // The opening will be the loop N, v, chain..., copies of chain and v back to N.
+      std::vector<Vertex> ids{N, v};
+      ids.insert(ids.end(), chain.begin(), chain.end());
+      for (std::size_t i = chain.size() - 1; i-- > 0;) ids.push_back(chain[i]);
+      ids.push_back(v);
+      const double qFan = loopQuality(m, ids);
+      const bool fanOk = qFan >= thr && !(chain.size() == 1 && m.findEdge(N, o).isValid());
+      double qApex = -1.0;
+      if (chain.size() == 1) {
+        const Vec3 po = m.position(o);
+        Vec3 want = paired ? Vec3(0.5 * (pN + po)) : depthN;
+        if (!paired && (depthN - pN).norm() < p.snapDistance) {
+          // Keep the groove at least the snapping distance deep (no flat walls).
+          const Vec3 n = rawNormal(m, m.face(eOut, 0)).normalized();
+          want = pN - p.snapDistance * (n.allFinite() ? n : Vec3::UnitZ());
+        }
+        auto quality = [&](const Vec3& b) { return std::min(height(pv, pN, b), height(pv, po, b)); };
+        apexPos = want;
+        qApex = quality(want);
+        for (const Vec3& c : {Vec3(0.5 * (want + po)), Vec3(0.5 * (pN + po)), Vec3((pv + pN + po) / 3.0)}) {
+          if (qApex >= thr) break;
+          const double q = quality(c);
+          if (q > qApex) {
+            qApex = q;
+            apexPos = c;
+          }
+        }
+      }
+      const bool apexOk = qApex >= thr;
+      if (paired || chain.size() > 1) {
+        fill = fanOk ? Fill::Fan : (apexOk && chain.size() == 1 ? Fill::Apex : Fill::Defer);
+      } else {
+        const bool reuse = apexProp[o] != 0 && (depthN - m.position(o)).norm() < p.grooveSpacing;
+        if (reuse && fanOk)
+          fill = Fill::Fan;
+        else if (apexOk)
+          fill = Fill::Apex;
+        else if (fanOk)
+          fill = Fill::Fan;
+        else
+          fill = Fill::Defer;
+      }
+      if (fill == Fill::Defer) {
+        if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
+        std::vector<Vertex> grown{v};
+        grown.insert(grown.end(), chain.begin(), chain.end());
+        advanceTo(grown);
+        return true;
+      }
+    }
+    const std::size_t facesBefore = m.facesSize();
+    auto groups = fanGroups(m, v, {eOut, eFront});
+    Vertex vn;
+    if (groups.size() == 2) vn = m.splitVertex(v, groups[1]);
+    if (!vn.isValid()) {
+      // Cannot open here (should not happen on a manifold mesh): leave the slit closed.
+      advanceTo({v});
+      return true;
+    }
+    if (tissue(tr.object)) physics::initVertexCopy(m, vn, v, p.tissue);
+    mark(tr, vn);
+    std::vector<Vertex> touched{v, vn, N};
+    // A longer front (a cut-in path, or a front through a wall apex) opens as well.
+    for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+      touched.push_back(chain[i]);
+      const Edge e = m.findEdge(chain[i], chain[i + 1]);
+      if (!e.isValid()) continue;
+      for (Vertex x : splitByGroups(tr.object, chain[i], {e})) {
+        mark(tr, x);
+        touched.push_back(x);
+      }
+    }
+    touched.push_back(chain.back());
+    std::vector<Vertex> next{v};
+    if (walls && chain.size() == 1) {
+      const Vertex apex =
+          fillQuad(tr.object, vn, N, v, o, fill == Fill::Apex, apexPos, paired ? kSideWall : kGrooveWall);
+      if (!apex.isValid()) {
+        ++stats.fillFailures;
+      } else if (apex == o) {
+        next = {o};
+        if (P && P->tip == o) P->chain = {N};
+      } else {
+        mark(tr, apex);
+        touched.push_back(apex);
+        if (P && P->tip == o) {
+          next = {apex, o};
+          P->chain = {apex, N};
+        } else {
+          next = {apex};
+        }
+      }
+    } else if (walls) {
+      if (!fillHoleAt(tr.object, N, P ? kSideWall : kGrooveWall)) ++stats.fillFailures;
+      next = {chain.back()};
+      if (P && P->tip == chain.back()) P->chain = {N};
+    }
+    advanceTo(next);
+    if (dbg()) {
+      for (Vertex x : touched)
+        if (m.isValid(x))
+          for (Face f : m.faces(x)) {
+            const auto& fv = m.vertices(f);
+            const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
+            if (h < 0.25 * p.snapDistance && f.idx() >= facesBefore)
+              std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill)
+                        << " chain=" << chain.size() << " paired=" << paired << "\n";
+          }
+    }
+    for (Vertex x : touched) touch(tr.object, {x});
+    for (Vertex x : touched) unpinch(tr.object, x);
+    return true;
+  }
+
+  // Closes the boundary loop through `start` (an opening made by the cut) with
+  // triangles: the triangulation of the loop whose smallest triangle is largest,
+  // never reusing an existing edge as a diagonal.
+  bool fillHoleAt(int obj, Vertex start, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    Edge be;
+    for (Edge e : m.edges(start))
+      if (m.isBoundary(e)) {
+        be = e;
+        break;
+      }
+    if (!be.isValid()) return true;
+    const auto loop = boundaryLoop(m, be, 200);
+    if (loop.size() < 3) return false;
+    return fillLoop(obj, loop, kind);
+  }
+
+  // Best smallest triangle height for closing a loop of vertices (copies listed as
+  // their originals: a diagonal is allowed only where no edge exists yet).
+  static double loopQuality(const SurfaceMesh& m, const std::vector<Vertex>& ids) {
+    std::vector<Vec3> pts;
+    for (Vertex x : ids) pts.push_back(m.position(x));
+    std::vector<std::array<int, 3>> tris;
+    return triangulate(
+        pts,
+        [&](int i, int j) {
+          const Vertex a = ids[static_cast<std::size_t>(i)], b = ids[static_cast<std::size_t>(j)];
+          return a != b && !m.findEdge(a, b).isValid();
+        },
+        tris);
+  }
+
+  // Smallest height of triangle (a, b, c): what makes a sliver.
+  static double height(const Vec3& a, const Vec3& b, const Vec3& c) {
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    return longest > 0 ? (b - a).cross(c - a).norm() / longest : 0.0;
+  }
+
+  // Triangulation of a closed polygon maximising the smallest triangle height (dynamic
+  // programming, O(n³)); triangles in pre-order from the edge (n-1, 0), so that each
+  // shares an edge with one listed before it. Returns the smallest height, or -inf.
+  static double triangulate(const std::vector<Vec3>& P, const std::function<bool(int, int)>& diagonalOk,
+                            std::vector<std::array<int, 3>>& out) {
+    const int n = static_cast<int>(P.size());
+    out.clear();
+    const double inf = std::numeric_limits<double>::infinity();
+    if (n < 3) return -inf;
+    if (n > 20) {
+      // Long loops (a long unopened front): the best fan, O(n²).
+      double bestQ = -inf;
+      int bestK = -1;
+      for (int k = 0; k < n; ++k) {
+        double q = inf;
+        for (int s = 1; s + 1 < n && q > bestQ; ++s) {
+          const int i = (k + s) % n, j = (k + s + 1) % n;
+          if (s > 1 && !diagonalOk(std::min(k, i), std::max(k, i))) q = -inf;
+          q = std::min(q, height(P[static_cast<std::size_t>(k)], P[static_cast<std::size_t>(i)],
+                                 P[static_cast<std::size_t>(j)]));
+        }
+        if (q > bestQ) {
+          bestQ = q;
+          bestK = k;
+        }
+      }
+      if (bestK < 0) return -inf;
+      for (int s = 1; s + 1 < n; ++s) out.push_back({bestK, (bestK + s) % n, (bestK + s + 1) % n});
+      return bestQ;
+    }
+    std::vector<double> best(static_cast<std::size_t>(n * n), -inf);
+    std::vector<int> split(static_cast<std::size_t>(n * n), -1);
+    auto at = [&](int i, int j) -> double& { return best[static_cast<std::size_t>(i * n + j)]; };
+    for (int i = 0; i + 1 < n; ++i) at(i, i + 1) = inf;
+    for (int len = 2; len < n; ++len)
+      for (int i = 0; i + len < n; ++i) {
+        const int j = i + len;
+        if (len < n - 1 && !diagonalOk(i, j)) continue;
+        for (int k = i + 1; k < j; ++k) {
+          const double val = std::min(
+              {at(i, k), at(k, j),
+               height(P[static_cast<std::size_t>(i)], P[static_cast<std::size_t>(k)], P[static_cast<std::size_t>(j)])});
+          if (val > at(i, j)) {
+            at(i, j) = val;
+            split[static_cast<std::size_t>(i * n + j)] = k;
+          }
+        }
+      }
+    if (split[static_cast<std::size_t>(n - 1)] < 0) return -inf;
+    std::vector<std::pair<int, int>> todo{{0, n - 1}};
+    while (!todo.empty()) {
+      const auto [i, j] = todo.back();
+      todo.pop_back();
+      if (j - i < 2) continue;
+      const int k = split[static_cast<std::size_t>(i * n + j)];
+      out.push_back({i, k, j});
+      todo.push_back({k, j});
+      todo.push_back({i, k});
+    }
+    return at(0, n - 1);
+  }
+
+  bool fillLoop(int obj, const std::vector<Vertex>& loop, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    if (dbg()) {
+      std::cerr << "fillLoop";
+      for (Vertex v : loop) std::cerr << " " << v << "(" << m.position(v).transpose() << ")";
+      std::cerr << "\n";
+    }
+    std::vector<Vec3> P;
+    for (Vertex v : loop) P.push_back(m.position(v));
+    std::vector<std::array<int, 3>> tris;
+    const double q = triangulate(
+        P,
+        [&](int i, int j) {
+          return !m.findEdge(loop[static_cast<std::size_t>(i)], loop[static_cast<std::size_t>(j)]).isValid();
+        },
+        tris);
+    if (!(q > -std::numeric_limits<double>::infinity())) return false;
+    std::vector<Face> added;
+    for (const auto& t : tris) {
+      const Face f = addTriangle(obj, loop[static_cast<std::size_t>(t[0])], loop[static_cast<std::size_t>(t[1])],
+                                 loop[static_cast<std::size_t>(t[2])], kind);
+      if (!f.isValid()) {
+        for (Face g : added) m.deleteFace(g);
+        return false;
+      }
+      added.push_back(f);
+    }
+    return true;
+  }
+
+  // ---- walking along the sweep plane ------------------------------------------------------
+  struct WalkGoal {
+    bool toVertex = false;
+    Vertex vertex;
+    Vec3 point = Vec3::Zero();
+  };
+
+  // From the track's tip, follows the curve where the plane (through the tip, unit
+  // normal n) meets the surface, in the direction `forward` at the start, inserting
+  // a vertex at every edge it crosses (extending the cut). Stops when the goal point
+  // lies in a face around the current vertex (or the goal vertex is a neighbour).
+  // With `collect`, the new vertices are only inserted and listed (the cut does not
+  // open along them yet).
+  bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
+            const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
+    const Vec3 origin = meshOf(tr.object).position(tr.tip);
+    const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - origin);
+    int sgn = 0;
+    double travelled = 0.0;
+    const int maxSteps = 100000;
+    for (int step = 0; step < maxSteps; ++step) {
+      SurfaceMesh& m = meshOf(tr.object);
+      const Vertex v = tr.tip;
+      const Vec3 pv = m.position(v);
+      const std::vector<Face> around = m.faces(v);
+      auto own = [&](Face f) {
+        for (Vertex x : m.vertices(f))
+          if (!tr.visited.count(x)) return false;
+        return true;
+      };
+      if (goal.toVertex) {
+        if (v == goal.vertex) return true;
+        for (Face f : around)
+          if (!own(f) && m.localIndex(f, goal.vertex) >= 0) return true;
+      } else {
+        if ((goal.point - pv).norm() <= 1e-9 * scaleOf(pv)) return true;
+        for (Face f : around)
+          if (pointInFace(m, f, goal.point)) return true;
+      }
+      // Candidates: where the plane leaves the fan of v, ahead of v.
+      struct Cand {
+        bool isVertex = false;
+        Vertex vx;
+        Vertex a, b;
+        Vec3 q;
+        double score = -1e300;
+        int sign = 1;
+      } best;
+      bool found = false;
+      const double eps = 1e-10 * scaleOf(pv);
+      for (Face f : around) {
+        if (own(f)) continue;
+        Vec3 nf = rawNormal(m, f);
+        const double nl = nf.norm();
+        if (!(nl > 0.0)) continue;
+        nf /= nl;
+        if (std::abs(nf.dot(n)) > 1.0 - 1e-9) continue;  // in the sweep plane itself
+        const Vec3 tf = n.cross(nf);
+        const auto& fv = m.vertices(f);
+        const int k = m.localIndex(f, v);
+        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
+        const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
+        auto consider = [&](bool isV, Vertex vx, const Vec3& q) {
+          const Vec3 d = q - pv;
+          const double dl = d.norm();
+          if (!(dl > 0.0)) return;
+          const Vec3 dn = d / dl;
+          const double along = dn.dot(tf);
+          const int sign = along >= 0 ? 1 : -1;
+          const double score = sgn == 0 ? dn.dot(forward) : sgn * along;
+          // The first step only has to avoid going back (around an edge of the
+          // object the curve may turn square to `forward`); later steps keep the
+          // curve's orientation.
+          if (sgn == 0 ? score <= -0.7 : score <= 1e-9) return;
+          if (!found || score > best.score) {
+            found = true;
+            best = Cand{isV, vx, a, b, q, score, sign};
+          }
+        };
+        const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
+        if (za && !tr.visited.count(a)) consider(true, a, m.position(a));
+        if (zb && !tr.visited.count(b)) consider(true, b, m.position(b));
+        if (!za && !zb && ((sa > 0) != (sb > 0)) && !(tr.visited.count(a) && tr.visited.count(b))) {
+          const Vec3 q = m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb));
+          consider(false, Vertex(), q);
+        }
+      }
+      if (!found) {
+        if (dbg()) std::cerr << "walk: no candidate at " << pv.transpose() << " step " << step << "\n";
+        return false;
+      }
+      if (sgn == 0) sgn = best.sign;
+      travelled += (best.q - pv).norm();
+      if (travelled > maxLen) {
+        if (dbg()) std::cerr << "walk: too long at " << pv.transpose() << "\n";
+        return false;
+      }
+      const double s =
+          span.squaredNorm() > 0 ? std::clamp((best.q - origin).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
+      const Vec3 depth = depth0 + s * (depth1 - depth0);
+      Vertex N;
+      if (best.isVertex) {
+        N = best.vx;
+      } else {
+        const Edge e = m.findEdge(best.a, best.b);
+        const double L = (m.position(best.b) - m.position(best.a)).norm();
+        const double tol = std::min(snapTolerance(L), 0.3 * L);
+        const double da = (best.q - m.position(best.a)).norm(), db = (best.q - m.position(best.b)).norm();
+        if (da <= tol && da <= db && !tr.visited.count(best.a)) {
+          N = best.a;
+        } else if (db <= tol && !tr.visited.count(best.b)) {
+          N = best.b;
+        } else if (da <= tol || db <= tol) {
+          return false;  // would touch the cut itself
+        } else {
+          N = splitEdgeAt(tr.object, e, best.q);
+        }
+        ++stats.trianglesCut;
+        ++res->trianglesCut;
+      }
+      if (!m.findEdge(v, N).isValid()) return false;
+      if (collect) {
+        mark(tr, N);
+        tr.tip = N;
+        collect->push_back(N);
+        continue;
+      }
+      extend(tr, N, depth);
+      if (tr.tip != N) return false;
+    }
+    return false;
+  }
+
+  // Plane normal for a path from `from` toward `to` swept by an edge along `blade`.
+  static Vec3 sweepNormal(const Vec3& from, const Vec3& to, const Vec3& blade, const Vec3& fallback) {
+    const Vec3 d = to - from;
+    Vec3 n = d.cross(blade);
+    if (n.norm() > 1e-9 * (d.norm() + 1e-300) * (blade.norm() + 1e-300) && n.norm() > 1e-14) return n.normalized();
+    n = d.cross(fallback);
+    if (n.norm() > 1e-14) return n.normalized();
+    return Vec3::Zero();
+  }
+
+  // ---- track life ---------------------------------------------------------------------------
+  void commitStart(Track& tr) {
+    if (tr.tip.isValid() || !tr.hasStart) return;
+    SurfaceMesh& m = meshOf(tr.object);
+    const Face f = locate(m, tr.startFace, tr.start);
+    tr.hasStart = false;
+    if (!f.isValid()) {
+      tr.alive = false;
+      ++stats.walkFailures;
+      return;
+    }
+    Vertex v;
+    if (!closedObject(tr.object) && tr.startMotion.norm() > 1e-9) {
+      // Sheet: a blade that came in over the rim starts the cut on the rim (cut-in).
+      const Vec3 n = sweepNormal(tr.start, tr.start + tr.startMotion, tr.startBlade, tr.startMotion);
+      if (!n.isZero()) v = entryVertex(tr.object, f, tr.start, n, -tr.startMotion, true);
+    }
+    if (!v.isValid()) v = insertPoint(tr.object, f, tr.start);
+    ++stats.trianglesCut;
+    ++res->trianglesCut;
+    extend(tr, v, tr.startDepth);
+  }
+
+  void advance(Track& tr, Hit& h, const Vec3& bladeDir) {
+    SurfaceMesh& m0 = meshOf(tr.object);
+    if (!tr.tip.isValid()) {
+      const Face f = locate(m0, tr.startFace, tr.start);
+      if (f.isValid() && pointInFace(m0, f, h.point)) {
+        tr.startFace = f;
+        tr.pending = h.point;
+        tr.pendingDepth = h.depth;
+        tr.hasPending = true;
+        return;
+      }
+      commitStart(tr);
+      if (!tr.alive) return;
+    }
+    SurfaceMesh& m = meshOf(tr.object);
+    const Vec3 from = m.position(tr.tip);
+    Vec3 fallback = Vec3::UnitZ();
+    {
+      const auto around = m.faces(tr.tip);
+      if (!around.empty()) fallback = rawNormal(m, around.front()).normalized();
+    }
+    const Vec3 n = sweepNormal(from, h.point, bladeDir, fallback);
+    bool ok = true;
+    if (n.isZero()) {
+      ok = false;
+      for (Face f : m.faces(tr.tip))
+        if (pointInFace(m, f, h.point)) ok = true;
+    } else {
+      const double dist = (h.point - from).norm();
+      WalkGoal g;
+      g.point = h.point;
+      const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
+      ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
+    }
+    if (!ok) {
+      if (dbg()) std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << "\n";
+      ++stats.walkFailures;
+      tr.hasPending = false;
+      end(tr);
+      h.used = false;  // a fresh track starts at the hit
+      return;
+    }
+    tr.pending = h.point;
+    tr.pendingDepth = h.depth;
+    tr.hasPending = true;
+  }
+
+  // The blade left this layer: the temporary point becomes permanent and the cut ends.
+  // On a sheet (open mesh, no walls) a blade that moved on over the rim cuts out to it.
+  void terminate(Track& tr, const Vec3& motion = Vec3::Zero(), const Vec3& blade = Vec3::Zero()) {
+    if (!tr.alive) return;
+    if (dbg()) std::cerr << "terminate track " << tr.id << " pending " << tr.pending.transpose() << "\n";
+    if (!tr.tip.isValid() && tr.hasStart) commitStart(tr);
+    if (tr.alive && tr.tip.isValid() && tr.hasPending && !closedObject(tr.object) && motion.norm() > 1e-9 &&
+        blade.norm() > 0) {
+      SurfaceMesh& m = meshOf(tr.object);
+      const Vec3 from = m.position(tr.tip);
+      const Vec3 goalPoint = tr.pending + 2.0 * motion;
+      const Vec3 n = sweepNormal(from, goalPoint, blade, motion);
+      if (!n.isZero() && (goalPoint - from).cross(blade).norm() > 1e-6 * (goalPoint - from).norm()) {
+        WalkGoal g;
+        g.point = goalPoint;
+        walk(tr, g, n, (goalPoint - from).normalized(), (goalPoint - from).norm() + p.snapDistance, tr.tipDepth,
+             tr.tipDepth);
+        tr.hasPending = false;
+      }
+    }
+    if (tr.alive && tr.tip.isValid() && tr.hasPending) {
+      SurfaceMesh& m = meshOf(tr.object);
+      if ((tr.pending - m.position(tr.tip)).norm() > p.snapDistance) {
+        Face f;
+        for (Face g : m.faces(tr.tip))
+          if (pointInFace(m, g, tr.pending, 1e-7)) {
+            f = g;
+            break;
+          }
+        if (f.isValid()) {
+          const Vertex N = insertPoint(tr.object, f, tr.pending);
+          ++stats.trianglesCut;
+          ++res->trianglesCut;
+          if (N != tr.tip && !tr.visited.count(N) && m.findEdge(tr.tip, N).isValid()) extend(tr, N, tr.pendingDepth);
+        }
+      }
+    }
+    end(tr);
+  }
+
+  void end(Track& tr) {
+    tr.alive = false;
+    tr.hasPending = false;
+    if (Track* P = trackById(tr.partner)) P->partner = -1;
+    tr.partner = -1;
+  }
+
+  // Both layers of a cut-through lost the blade in the same sample: if it left
+  // through the side (moving on, not lifted), finish the cut around that side and
+  // join the two layers (cut-out).
+  void cutOut(Track& A, Track& B, const Vec3& motion) {
+    bool done = false;
+    if (dbg()) std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << "\n";
+    if (A.tip.isValid() && B.tip.isValid() && motion.norm() > 1e-12 && !A.chain.empty() && A.chain.back() == B.tip) {
+      SurfaceMesh& m = meshOf(A.object);
+      const Vec3 pa = m.position(A.tip), pb = m.position(B.tip);
+      const Vec3 n = sweepNormal(pa, pb, motion, motion);
+      if (!n.isZero() && (pb - pa).cross(motion).norm() > 1e-6 * (pb - pa).norm() * motion.norm()) {
+        WalkGoal g;
+        g.toVertex = true;
+        g.vertex = B.tip;
+        const double maxLen = 3.0 * ((pb - pa).norm() + motion.norm()) + 2.0 * p.matchRadius;
+        A.hasPending = B.hasPending = false;
+        const Vertex start = A.tip;
+        std::vector<Vertex> path{start};
+        if (walk(A, g, n, motion.normalized(), maxLen, A.tipDepth, A.tipDepth, &path) && A.alive) {
+          A.tip = start;
+          done = close(A, B, path);
+        } else if (path.size() > 1) {
+          // Went part of the way: open what was inserted as an ordinary cut.
+          A.tip = start;
+          for (std::size_t i = 1; i < path.size(); ++i) extend(A, path[i], A.tipDepth);
+        }
+      }
+    }
+    if (done) {
+      checkSeparation.push_back(A.object);
+      end(A);
+      end(B);
+      return;
+    }
+    terminate(A);
+    terminate(B);
+  }
+
+  // The cut-out path (A's tip ... a neighbour of B's tip) and the front (A's tip,
+  // chain ..., B's tip) form a closed loop: cut along all of it and close both sides.
+  bool close(Track& A, Track& B, const std::vector<Vertex>& path) {
+    SurfaceMesh& m = meshOf(A.object);
+    std::vector<Vertex> loop = path;
+    loop.push_back(B.tip);
+    for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
+    // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
+    {
+      // Both sides get this loop's shape: refuse to make slivers.
+      std::vector<Vec3> pts;
+      for (Vertex x : loop) pts.push_back(m.position(x));
+      if (loopQuality(m, loop) < 0.5 * p.snapDistance) return false;
+    }
+    std::vector<Edge> cuts;
+    for (std::size_t i = 0; i < loop.size(); ++i) {
+      const Edge e = m.findEdge(loop[i], loop[(i + 1) % loop.size()]);
+      if (!e.isValid()) return false;
+      cuts.push_back(e);
+    }
+    std::vector<Vertex> touched = loop;
+    for (Vertex x : loop)
+      for (Vertex nv : splitByGroups(A.object, x, cuts)) {
+        mark(A, nv);
+        touched.push_back(nv);
+      }
+    bool ok = true;
+    for (std::size_t i = 0; i < touched.size(); ++i) {
+      const Vertex x = touched[i];
+      for (Edge e : std::vector<Edge>(m.edges(x))) {
+        if (!m.isValid(e) || !m.isBoundary(e)) continue;
+        const auto lp = boundaryLoop(m, e, 400);
+        ok = lp.size() >= 3 && fillLoop(A.object, lp, kSideWall) && ok;
+      }
+    }
+    if (!ok) ++stats.fillFailures;
+    for (Vertex x : touched) touch(A.object, {x});
+    for (Vertex x : touched) unpinch(A.object, x);
+    return true;
+  }
+
+  // Vertices of the boundary loop through boundary edge e (empty if longer than maxLen).
+  static std::vector<Vertex> boundaryLoop(const SurfaceMesh& m, Edge e, std::size_t maxLen) {
+    std::vector<Vertex> loop;
+    const Vertex start = m.vertex(e, 0);
+    Vertex cur = m.vertex(e, 1);
+    Edge curE = e;
+    loop.push_back(start);
+    while (cur != start) {
+      loop.push_back(cur);
+      if (loop.size() > maxLen) return {};
+      Edge next;
+      for (Edge g : m.edges(cur))
+        if (g != curE && m.isBoundary(g)) {
+          next = g;
+          break;
+        }
+      if (!next.isValid()) return {};
+      curE = next;
+      cur = m.otherVertex(next, cur);
+    }
+    return loop;
+  }
+
+  // The crossing behind P (against `back`'s opposite) where the plane leaves face f:
+  // the edge the blade came in through on a slide-in.
+  Vertex entryVertex(int obj, Face f, const Vec3& P, const Vec3& n, const Vec3& back, bool boundaryOnly = false) {
+    SurfaceMesh& m = meshOf(obj);
+    const auto fv = m.vertices(f);
+    const auto fe = m.edges(f);
+    double s[3];
+    for (int i = 0; i < 3; ++i) s[i] = n.dot(m.position(fv[static_cast<std::size_t>(i)]) - P);
+    const double eps = 1e-10 * scaleOf(P);
+    int bestE = -1;
+    Vec3 bestQ = P;
+    double bestScore = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const int j = (i + 1) % 3;
+      const Vec3& a = m.position(fv[static_cast<std::size_t>(i)]);
+      const Vec3& b = m.position(fv[static_cast<std::size_t>(j)]);
+      Vec3 q;
+      if (std::abs(s[i]) <= eps)
+        q = a;
+      else if (std::abs(s[j]) <= eps)
+        q = b;
+      else if ((s[i] > 0) != (s[j] > 0))
+        q = a + (b - a) * (s[i] / (s[i] - s[j]));
+      else
+        continue;
+      const double score = (q - P).dot(back);
+      if (score > bestScore) {
+        bestScore = score;
+        bestE = i;
+        bestQ = q;
+      }
+    }
+    if (bestE < 0) return boundaryOnly ? Vertex() : insertPoint(obj, f, P);
+    const Edge e = fe[static_cast<std::size_t>(bestE)];
+    if (boundaryOnly && !m.isBoundary(e)) return Vertex();
+    const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+    const double L = m.edgeLength(e);
+    const double tol = std::min(snapTolerance(L), 0.3 * L);
+    const double da = (bestQ - m.position(a)).norm(), db = (bestQ - m.position(b)).norm();
+    if (da <= tol && da <= db) return a;
+    if (db <= tol) return b;
+    return splitEdgeAt(obj, e, bestQ);
+  }
+
+  // Two new crossings with material between them (a slide-in through both layers):
+  // cut from the lower crossing back around the edge the blade came in over, to the
+  // upper crossing, and pair the two tracks.
+  void startPair(HandState& hs, const Hit& h0, const Hit& h1, const Vec3& motionIn, const Vec3& bladeDir,
+                 const Vec3& upDir) {
+    if (dbg()) std::cerr << "startPair at " << h0.point.transpose() << " / " << h1.point.transpose() << "\n";
+    const Vec3 motion = motionIn;
+    if (motion.norm() < 1e-9) {
+      // The blade appeared inside (first sample): not a slide-in.
+      startSingle(hs, h0);
+      startSingle(hs, h1);
+      return;
+    }
+    (void)upDir;
+    Track A = newTrack(h0), B = newTrack(h1);
+    A.hasStart = B.hasStart = false;
+    SurfaceMesh& m = meshOf(h0.object);
+    const Face fb = locate(m, h1.face, h1.point);
+    const Vec3 n = sweepNormal(h1.point, h1.point + motion, bladeDir, motion);
+    bool ok = fb.isValid() && !n.isZero();
+    if (ok) {
+      const Vertex sB = entryVertex(h1.object, fb, h1.point, n, -motion);
+      ++stats.trianglesCut;
+      ++res->trianglesCut;
+      B.tip = sB;
+      B.visited.insert(sB);
+      A.tip = sB;
+      A.visited.insert(sB);
+      A.partner = B.id;
+      B.partner = A.id;
+      hs.tracks.push_back(A);
+      hs.tracks.push_back(B);
+      Track& a = hs.tracks[hs.tracks.size() - 2];
+      Track& b = hs.tracks.back();
+      const Vec3 from = meshOf(a.object).position(sB);
+      const Vec3 n2 = sweepNormal(from, h0.point, motion, n);
+      WalkGoal g;
+      g.point = h0.point;
+      std::vector<Vertex> path;
+      ok = !n2.isZero() &&
+           walk(a, g, n2, -motion.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
+                h0.depth, h0.depth, &path);
+      a.pending = h0.point;
+      a.pendingDepth = h0.depth;
+      a.hasPending = true;
+      b.pending = h1.point;
+      b.pendingDepth = h1.depth;
+      b.hasPending = true;
+      if (ok) {
+        // The cut-in path sB -> ... -> a.tip stays closed for now: it is the front
+        // between the layers and opens with the first step of either layer (its walls
+        // then have the blade's motion as width, not zero).
+        if (!path.empty()) {
+          a.chain.assign(path.rbegin() + 1, path.rend());
+          a.chain.push_back(sB);
+          b.chain.assign(path.begin(), path.end());
+        }
+        for (Vertex x : a.visited) b.visited.insert(x);
+        return;
+      }
+      ++stats.walkFailures;
+      // Could not join the layers: both go on as independent cuts from sB.
+      a.partner = b.partner = -1;
+      a.tip = sB;
+      a.chain.clear();
+      for (Vertex x : path) extend(a, x, h0.depth);
+      return;
+    }
+    startSingle(hs, h0);
+    startSingle(hs, h1);
+  }
+
+  Track newTrack(const Hit& h) {
+    Track t;
+    t.id = nextTrackId++;
+    t.object = h.object;
+    t.segment = h.segment;
+    t.dir = h.dir;
+    t.hasStart = true;
+    t.start = h.point;
+    t.startDepth = h.depth;
+    t.startFace = h.face;
+    t.tipDepth = h.depth;
+    t.pending = h.point;
+    t.pendingDepth = h.depth;
+    t.hasPending = true;
+    ++stats.tracks;
+    return t;
+  }
+
+  void startSingle(HandState& hs, const Hit& h) {
+    if (dbg()) std::cerr << "startSingle at " << h.point.transpose() << " dir " << h.dir << "\n";
+    hs.tracks.push_back(newTrack(h));
+  }
+
+  // ---- separation -----------------------------------------------------------------------------
+  void endTracksOn(int obj) {
+    for (auto& hs : hands)
+      for (auto& t : hs.tracks)
+        if (t.alive && t.object == obj) terminate(t);
+  }
+
+  static void keepComponent(SurfaceMesh& m, const mesh::Components& c, int label) {
+    for (Face f : m.faces())
+      if (c.faceLabel[f.idx()] != label) m.deleteFace(f);
+    for (Vertex v : m.vertices())
+      if (m.isIsolated(v)) m.deleteVertex(v);
+    m.garbageCollection();
+  }
+
+  void separate(int obj) {
+    const int idx = indexOf(obj);
+    if (idx < 0) return;
+    const mesh::Components c = objects[static_cast<std::size_t>(idx)].mesh.connectedComponents();
+    if (c.count <= 1) return;
+    endTracksOn(obj);
+    std::vector<long> size(static_cast<std::size_t>(c.count), 0);
+    for (int l : c.faceLabel)
+      if (l >= 0) ++size[static_cast<std::size_t>(l)];
+    const int keep = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+    for (int l = 0; l < c.count; ++l) {
+      if (l == keep) continue;
+      TissueObject piece;
+      piece.id = nextId++;
+      piece.parent = obj;
+      piece.closedAtStart = objects[static_cast<std::size_t>(idx)].closedAtStart;
+      piece.mesh = objects[static_cast<std::size_t>(idx)].mesh;
+      keepComponent(piece.mesh, c, l);
+      const bool t = hasTissue[static_cast<std::size_t>(idx)];
+      objects.push_back(std::move(piece));
+      hasTissue.push_back(t);
+      res->separated.push_back(objects.back().id);
+      ++stats.separations;
+    }
+    keepComponent(objects[static_cast<std::size_t>(indexOf(obj))].mesh, c, keep);
+  }
+
+  // ---- samples ------------------------------------------------------------------------------------
+  std::vector<Hit> hitsOf(const Vec3& a, const Vec3& b, int segment) {
+    std::vector<Hit> out;
+    for (const auto& o : objects) {
+      const auto hits = collision::intersectSegment(o.mesh, a, b);
+      std::vector<Hit> mine;
+      for (const auto& h : hits) {
+        if (h.kind == collision::HitKind::Coplanar || h.direction == 0) continue;
+        Hit x;
+        x.object = o.id;
+        x.segment = segment;
+        x.face = h.face;
+        x.point = h.point;
+        x.t = h.t;
+        x.dir = h.direction;
+        mine.push_back(x);
+      }
+      // Depth: the blade's end on the material side, or halfway to the next crossing.
+      for (std::size_t i = 0; i < mine.size(); ++i) {
+        Hit& x = mine[i];
+        if (x.dir > 0) {
+          x.depth = (i + 1 < mine.size()) ? Vec3(0.5 * (x.point + mine[i + 1].point)) : b;
+        } else {
+          x.depth = (i > 0) ? Vec3(0.5 * (x.point + mine[i - 1].point)) : a;
+        }
+      }
+      out.insert(out.end(), mine.begin(), mine.end());
+    }
+    return out;
+  }
+
+  void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {
+    const auto segs = instruments::segments(tool, pose, p.tool);
+    const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
+    std::vector<Hit> hits;
+    for (std::size_t s = 0; s < segs.size(); ++s) {
+      const auto& sg = segs[s];
+      if (!cuts && !report) continue;
+      auto h = hitsOf(sg.a, sg.b, static_cast<int>(s));
+      if (report)
+        for (const auto& x : h) {
+          Contact c;
+          c.object = x.object;
+          c.segment = x.segment;
+          c.role = sg.role;
+          c.point = x.point;
+          c.t = x.t;
+          c.entering = x.dir > 0;
+          res->contacts.push_back(c);
+        }
+      if (cuts && sg.role == instruments::SegmentRole::CuttingEdge) hits.insert(hits.end(), h.begin(), h.end());
+    }
+    if (!cuts) {
+      for (auto& t : hs.tracks) terminate(t);
+      hs.tracks.clear();
+      return;
+    }
+    std::vector<instruments::Segment> prevSegs;
+    if (prevPose) prevSegs = instruments::segments(tool, *prevPose, p.tool);
+    auto motionOf = [&](int s) -> Vec3 {
+      if (prevSegs.size() != segs.size()) return Vec3::Zero();
+      const auto& a = segs[static_cast<std::size_t>(s)];
+      const auto& b = prevSegs[static_cast<std::size_t>(s)];
+      return 0.5 * (a.a + a.b) - 0.5 * (b.a + b.b);
+    };
+    auto bladeOf = [&](int s) -> Vec3 {
+      const auto& a = segs[static_cast<std::size_t>(s)];
+      return (a.b - a.a).normalized();
+    };
+
+    // Match crossings to the tracks of the previous sample, nearest first.
+    struct Pair {
+      double d;
+      std::size_t track, hit;
+    };
+    std::vector<Pair> pairs;
+    for (std::size_t ti = 0; ti < hs.tracks.size(); ++ti) {
+      const Track& t = hs.tracks[ti];
+      if (!t.alive) continue;
+      const Vec3 at = t.hasPending ? t.pending : t.start;
+      const double radius = p.matchRadius + 2.0 * motionOf(t.segment).norm();
+      for (std::size_t hi = 0; hi < hits.size(); ++hi) {
+        const Hit& h = hits[hi];
+        if (h.object != t.object || h.segment != t.segment || h.dir != t.dir) continue;
+        const double d = (h.point - at).norm();
+        if (d <= radius) pairs.push_back({d, ti, hi});
+      }
+    }
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      return a.d != b.d ? a.d < b.d : (a.track != b.track ? a.track < b.track : a.hit < b.hit);
+    });
+    std::vector<int> matchOf(hs.tracks.size(), -1);
+    for (const auto& pr : pairs) {
+      if (matchOf[pr.track] >= 0 || hits[pr.hit].used) continue;
+      matchOf[pr.track] = static_cast<int>(pr.hit);
+      hits[pr.hit].used = true;
+    }
+    const std::size_t nTracks = hs.tracks.size();
+    for (std::size_t ti = 0; ti < nTracks; ++ti) {
+      if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
+      Track& t = hs.tracks[ti];
+      advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));
+    }
+    // Tracks that lost the blade.
+    for (std::size_t ti = 0; ti < nTracks; ++ti) {
+      Track& t = hs.tracks[ti];
+      if (!t.alive || matchOf[ti] >= 0) continue;
+      Track* P = trackById(t.partner);
+      if (P) {
+        std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
+        if (pi < nTracks && matchOf[pi] < 0) {
+          cutOut(t, *P, motionOf(t.segment));
+          continue;
+        }
+      }
+      terminate(t, motionOf(t.segment), bladeOf(t.segment));
+    }
+    // New crossings start cuts: two with material between them on a closed object
+    // make a slide-in through both layers, others a pierce-in.
+    for (std::size_t i = 0; i < hits.size(); ++i) {
+      if (hits[i].used) continue;
+      const Hit& h = hits[i];
+      std::size_t j = i + 1;
+      if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
+          hits[j].dir < 0 && closedObject(h.object)) {
+        hits[i].used = hits[j].used = true;
+        // Upper layer (h0) is the one nearer the edge's far end b.
+        startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up);
+        continue;
+      }
+      hits[i].used = true;
+      startSingle(hs, h);
+      hs.tracks.back().startMotion = motionOf(h.segment);
+      hs.tracks.back().startBlade = bladeOf(h.segment);
+    }
+    std::erase_if(hs.tracks, [](const Track& t) { return !t.alive; });
+    // Separation of freed pieces.
+    auto objs = checkSeparation;
+    checkSeparation.clear();
+    std::sort(objs.begin(), objs.end());
+    objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
+    for (int o : objs) separate(o);
+    for (auto& h : hands) std::erase_if(h.tracks, [](const Track& t) { return !t.alive; });
+    if (report) {
+      for (const auto& t : hs.tracks) {
+        if (!t.alive || !t.hasPending) continue;
+        CutPoint c;
+        c.object = t.object;
+        c.segment = t.segment;
+        c.track = t.id;
+        c.point = t.pending;
+        c.depth = t.pendingDepth;
+        c.through = t.partner >= 0;
+        res->cutPoints.push_back(c);
+        PreviewSegment ps;
+        ps.object = t.object;
+        ps.from = t.tip.isValid() ? meshOf(t.object).position(t.tip) : t.start;
+        ps.to = t.pending;
+        ps.depth = t.pendingDepth;
+        res->preview.push_back(ps);
+      }
+    }
+  }
+
+  // ---- bookkeeping around a call -------------------------------------------------------------------
+  struct Counts {
+    long faces = 0, vertices = 0;
+  };
+  Counts counts() const {
+    Counts c;
+    for (const auto& o : objects) {
+      c.faces += static_cast<long>(o.mesh.nFaces());
+      c.vertices += static_cast<long>(o.mesh.nVertices());
+    }
+    return c;
+  }
+  std::uint64_t versionSum() const {
+    std::uint64_t s = objects.size();
+    for (const auto& o : objects) s += o.mesh.topologyVersion();
+    return s;
+  }
+
+  template <class F>
+  StepResult run(F&& body) {
+    StepResult r;
+    res = &r;
+    const Counts before = counts();
+    const std::uint64_t v0 = versionSum();
+    const auto t0 = std::chrono::steady_clock::now();
+    body();
+    const auto t1 = std::chrono::steady_clock::now();
+    const Counts after = counts();
+    r.trianglesAdded = after.faces - before.faces;
+    r.verticesAdded = after.vertices - before.vertices;
+    r.topologyChanged = versionSum() != v0;
+    stats.trianglesAdded += r.trianglesAdded;
+    stats.verticesAdded += r.verticesAdded;
+    if (r.topologyChanged) stats.remeshSeconds += std::chrono::duration<double>(t1 - t0).count();
+    res = nullptr;
+    return r;
+  }
+};
+
+CutEngine::CutEngine(CutParams params) : impl_(std::make_unique<Impl>()) {
+  if (!(params.snapDistance >= 0.0) || !(params.snapFraction >= 0.0) || params.snapFraction >= 0.5 ||
+      !(params.maxSubstep > 0.0) || params.maxSubsteps < 1 || !(params.matchRadius > 0.0) ||
+      !(params.grooveSpacing >= 0.0))
+    throw CutError("CutParams out of range");
+  impl_->p = params;
+}
+CutEngine::~CutEngine() = default;
+CutEngine::CutEngine(CutEngine&&) noexcept = default;
+CutEngine& CutEngine::operator=(CutEngine&&) noexcept = default;
+
+int CutEngine::addObject(mesh::SurfaceMesh m) {
+  TissueObject o;
+  o.id = impl_->nextId++;
+  o.closedAtStart = m.isClosed();
+  o.mesh = std::move(m);
+  o.mesh.faceProperty<int>(kFaceKindProp, kSurface);
+  o.mesh.vertexProperty<std::uint8_t>(kApexProp, 0);
+  impl_->hasTissue.push_back(physics::hasTissueProperties(o.mesh));
+  impl_->objects.push_back(std::move(o));
+  return impl_->objects.back().id;
+}
+
+const std::vector<TissueObject>& CutEngine::objects() const { return impl_->objects; }
+
+TissueObject& CutEngine::object(int id) {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  return impl_->objects[static_cast<std::size_t>(i)];
+}
+
+StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
+  if (!pose.tip.allFinite() || !pose.dir.allFinite() || !pose.up.allFinite() || pose.dir.norm() < 1e-12)
+    throw CutError("instrument pose is not finite or has no direction");
+  Impl& I = *impl_;
+  HandState& hs = I.hands[handIndex(hand)];
+  return I.run([&] {
+    if (hs.hasPrev && hs.tool != tool) {
+      for (auto& t : hs.tracks) I.terminate(t);
+      hs.tracks.clear();
+      hs.hasPrev = false;
+    }
+    if (!hs.hasPrev) {
+      I.processSample(hs, tool, pose, nullptr, true);
+    } else {
+      const auto a = instruments::segments(tool, hs.prev, I.p.tool);
+      const auto b = instruments::segments(tool, pose, I.p.tool);
+      double disp = 0.0;
+      for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+        disp = std::max({disp, (a[i].a - b[i].a).norm(), (a[i].b - b[i].b).norm()});
+      const int n = std::clamp(static_cast<int>(std::ceil(disp / I.p.maxSubstep)), 1, I.p.maxSubsteps);
+      Pose prev = hs.prev;
+      for (int k = 1; k <= n; ++k) {
+        const Pose cur = k == n ? pose : lerpPose(hs.prev, pose, static_cast<double>(k) / n);
+        I.processSample(hs, tool, cur, &prev, k == n);
+        prev = cur;
+      }
+    }
+    hs.prev = pose;
+    hs.tool = tool;
+    hs.hasPrev = true;
+  });
+}
+
+StepResult CutEngine::endStroke(Hand hand) {
+  Impl& I = *impl_;
+  HandState& hs = I.hands[handIndex(hand)];
+  return I.run([&] {
+    for (auto& t : hs.tracks) I.terminate(t);
+    hs.tracks.clear();
+    hs.hasPrev = false;
+  });
+}
+
+StepResult CutEngine::finish() {
+  StepResult a = endStroke(Hand::Left);
+  StepResult b = endStroke(Hand::Right);
+  a.trianglesCut += b.trianglesCut;
+  a.trianglesAdded += b.trianglesAdded;
+  a.verticesAdded += b.verticesAdded;
+  a.topologyChanged = a.topologyChanged || b.topologyChanged;
+  return a;
+}
+
+const CutStats& CutEngine::stats() const { return impl_->stats; }
+const CutParams& CutEngine::params() const { return impl_->p; }
+
+}  // namespace ld::cutting

@@ -1,0 +1,153 @@
+#pragma once
+// Progressive cutting of surface-mesh tissue objects by instrument cutting edges
+// (method and design notes in sim/cutting/README.md).
+//
+// A CutEngine owns the tissue objects of a scene. Feed it one instrument pose per
+// hand per sample with step(); it finds where the cutting edges cross the surfaces,
+// follows each crossing ("track") from sample to sample across the triangles,
+// inserts permanent vertices where a track crosses a mesh edge, opens the surface
+// behind the blade, and closes the opening at once with groove triangles (one layer
+// cut: the groove bottom follows the blade's depth) or side triangles (the blade
+// passes through two layers: the walls join them). The current point inside a
+// triangle is temporary: it is reported as preview geometry and only becomes a
+// vertex when the blade leaves the triangle or the cut ends. A closed mesh stays
+// closed, manifold and consistently oriented after every call. When a cut-through
+// frees a part, it becomes an object of its own (StepResult::separated).
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/cutting/cut_error.h"
+#include "sim/instruments/instrument.h"
+#include "sim/mesh/surface_mesh.h"
+#include "sim/physics/tissue_properties.h"
+
+namespace ld::cutting {
+
+// Face property "f:cut_kind" (int) tells the renderer what a face is.
+inline constexpr const char* kFaceKindProp = "f:cut_kind";
+enum FaceKind : int { kSurface = 0, kGrooveWall = 1, kSideWall = 2 };
+
+struct CutParams {
+  // No vertex is created closer than this to an existing vertex of the triangle it
+  // goes into, nor closer than this to an edge (the hit snaps to it instead) [mm].
+  double snapDistance = 0.05;
+  // ... and no split of an edge closer to an end than this fraction of its length.
+  double snapFraction = 0.08;
+  // Groove bottom vertices are at least this far apart along the groove [mm]; between
+  // them the walls fan around the last bottom vertex (fewer triangles per cut).
+  double grooveSpacing = 1.0;
+  // Motion of a cutting edge longer than this between two samples is split into
+  // interpolated sub-samples (the swept test: fast strokes miss nothing) [mm].
+  double maxSubstep = 0.5;
+  int maxSubsteps = 256;
+  // A crossing matches the track of the previous sample within this distance, plus
+  // twice the motion of the edge [mm].
+  double matchRadius = 2.0;
+  // Open (non-closed) meshes are sheets: cut without groove or side walls.
+  bool wallsOnOpenMeshes = false;
+  instruments::Settings tool;
+  // Physics hooks: when the mesh carries the tissue properties (physics::
+  // hasTissueProperties), new vertices and edges are initialised with these.
+  physics::TissueParams tissue;
+};
+
+struct TissueObject {
+  int id = 0;
+  int parent = -1;  // the object it was separated from, or -1
+  mesh::SurfaceMesh mesh;
+  bool closedAtStart = false;  // walls are made when closed (or wallsOnOpenMeshes)
+};
+
+// An instrument segment touching a surface (every tool, cutting or not).
+struct Contact {
+  int object = -1;
+  int segment = -1;  // index into instruments::segments(tool, pose)
+  instruments::SegmentRole role = instruments::SegmentRole::CuttingEdge;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double t = 0.0;         // along the segment
+  bool entering = false;  // the segment runs from outside to inside the surface here
+};
+
+// Where a cutting edge meets the surface while it cuts (one per active track per sample).
+struct CutPoint {
+  int object = -1;
+  int segment = -1;
+  int track = -1;  // stable id for the stroke's crossing of one layer
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d depth = Eigen::Vector3d::Zero();  // groove bottom / blade end inside
+  bool through = false;                             // part of a cut-through (paired with another layer)
+};
+
+// Temporary geometry: from the last permanent vertex of a track to the blade's
+// current point (and its depth point). Draw it over the mesh: the cut follows the
+// blade at once even inside a triangle.
+struct PreviewSegment {
+  int object = -1;
+  Eigen::Vector3d from = Eigen::Vector3d::Zero();
+  Eigen::Vector3d to = Eigen::Vector3d::Zero();
+  Eigen::Vector3d depth = Eigen::Vector3d::Zero();
+};
+
+struct StepResult {
+  std::vector<Contact> contacts;
+  std::vector<CutPoint> cutPoints;
+  std::vector<PreviewSegment> preview;
+  std::vector<int> separated;  // ids of objects created by separation in this step
+  long trianglesCut = 0;       // triangles the cut passed through in this step
+  long trianglesAdded = 0;     // net change in face count
+  long verticesAdded = 0;
+  bool topologyChanged = false;
+};
+
+struct CutStats {
+  long trianglesCut = 0;
+  long trianglesAdded = 0;
+  long verticesAdded = 0;
+  long tracks = 0;
+  long separations = 0;
+  long walkFailures = 0;       // a track could not follow the blade and was ended
+  long fillFailures = 0;       // an opening could not be closed (should stay 0)
+  long unpinched = 0;          // pinched vertices split (safety net)
+  double remeshSeconds = 0.0;  // time in topology edits (walks, splits, walls, separation)
+  [[nodiscard]] double remeshMicrosPerCutTriangle() const {
+    return trianglesCut > 0 ? remeshSeconds * 1e6 / static_cast<double>(trianglesCut) : 0.0;
+  }
+};
+
+class CutEngine {
+ public:
+  explicit CutEngine(CutParams params = {});
+  ~CutEngine();
+  CutEngine(CutEngine&&) noexcept;
+  CutEngine& operator=(CutEngine&&) noexcept;
+  CutEngine(const CutEngine&) = delete;
+  CutEngine& operator=(const CutEngine&) = delete;
+
+  // Takes ownership; returns the object's id.
+  int addObject(mesh::SurfaceMesh m);
+  [[nodiscard]] const std::vector<TissueObject>& objects() const;
+  // Throws CutError for an unknown id. Do not change the connectivity of a mesh
+  // while a stroke is open on it (positions may change: physics moves vertices).
+  [[nodiscard]] TissueObject& object(int id);
+
+  // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
+  // pedal is down, grasper jaws never (contacts only).
+  StepResult step(instruments::Hand hand, instruments::Tool tool, const instruments::Pose& pose);
+  // The instrument is lifted: every open cut of the hand ends where it is.
+  StepResult endStroke(instruments::Hand hand);
+  // Both hands.
+  StepResult finish();
+
+  [[nodiscard]] const CutStats& stats() const;
+  [[nodiscard]] const CutParams& params() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ld::cutting
