@@ -1,9 +1,10 @@
 // lapdissect: the desktop program.
 //   lapdissect [--model FILE] [--db URL] [--wireframe] [--no-physics]
 //              [--screenshot OUT.png [--size WxH] [--whole-window]
-//               [--physics [--push X,Y,Z,FX,FY,FZ] [--sim-time S]]]
+//               [--physics [--push X,Y,Z,FX,FY,FZ] [--cut X0,Y0,X1,Y1,DEPTH] [--sim-time S]]]
 // With --physics the screenshot is taken after the tissue has settled and run for
-// --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z);
+// --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z,
+// and a scalpel stroke across the top from (X0,Y0) to (X1,Y1) DEPTH mm deep);
 // a JSON line with the simulation's figures goes to stdout.
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
@@ -38,6 +39,7 @@ constexpr int kBadInput = 2;
 
 void printError(const QString& s) { std::fprintf(stderr, "lapdissect: %s\n", qPrintable(s)); }
 
+#ifdef LD_GUI_HAVE_PHYSICS
 // The referenced vertex nearest p (first three entries).
 std::optional<std::size_t> nearestVertex(const ld::gui::RenderMesh& m, const std::array<double, 6>& p) {
   std::optional<std::size_t> best;
@@ -53,6 +55,7 @@ std::optional<std::size_t> nearestVertex(const ld::gui::RenderMesh& m, const std
     }
   return best;
 }
+#endif
 
 }  // namespace
 
@@ -96,11 +99,17 @@ int main(int argc, char** argv) {
   const QCommandLineOption pushOpt(QStringLiteral("push"),
                                    QStringLiteral("With --physics: force [mN] at the vertex nearest a point [mm]."),
                                    QStringLiteral("X,Y,Z,FX,FY,FZ"));
+  const QCommandLineOption zoomOpt(QStringLiteral("zoom"),
+                                   QStringLiteral("With --screenshot: zoom in by this many wheel steps after fitting."),
+                                   QStringLiteral("STEPS"), QStringLiteral("0"));
+  const QCommandLineOption cutOpt(QStringLiteral("cut"),
+                                  QStringLiteral("With --physics: a scalpel stroke across the top, DEPTH mm deep."),
+                                  QStringLiteral("X0,Y0,X1,Y1,DEPTH"));
   const QCommandLineOption simTimeOpt(QStringLiteral("sim-time"),
                                       QStringLiteral("With --physics: simulated seconds after settling (default 0.5)."),
                                       QStringLiteral("S"), QStringLiteral("0.5"));
-  parser.addOptions(
-      {modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt, noPhysicsOpt, physicsOpt, pushOpt, simTimeOpt});
+  parser.addOptions({modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt, noPhysicsOpt, physicsOpt, pushOpt, cutOpt,
+                     simTimeOpt, zoomOpt});
   if (!parser.parse(QApplication::arguments())) {
     printError(parser.errorText());
     return kBadInput;
@@ -129,6 +138,17 @@ int main(int argc, char** argv) {
     for (int i = 0; ok && i < 6; ++i) push[static_cast<std::size_t>(i)] = parts[i].toDouble(&ok);
     if (!ok || !physics) {
       printError(QStringLiteral("--push: expected X,Y,Z,FX,FY,FZ (six numbers) together with --physics"));
+      return kBadInput;
+    }
+  }
+  std::array<double, 5> cut{};
+  const bool hasCut = parser.isSet(cutOpt);
+  if (hasCut) {
+    const QStringList parts = parser.value(cutOpt).split(',');
+    bool ok = parts.size() == 5;
+    for (int i = 0; ok && i < 5; ++i) cut[static_cast<std::size_t>(i)] = parts[i].toDouble(&ok);
+    if (!ok || !physics || !(cut[4] > 0.0)) {
+      printError(QStringLiteral("--cut: expected X0,Y0,X1,Y1,DEPTH (five numbers, DEPTH > 0) together with --physics"));
       return kBadInput;
     }
   }
@@ -165,6 +185,13 @@ int main(int argc, char** argv) {
     window.view()->setFixedSize(w, h);
     window.show();
     window.view()->fitToView();  // the view has its final size only now
+    bool zoomOk = false;
+    const double zoom = parser.value(zoomOpt).toDouble(&zoomOk);
+    if (!zoomOk || std::abs(zoom) > 40) {
+      printError(QStringLiteral("--zoom: '%1' is not a number of steps in [-40, 40]").arg(parser.value(zoomOpt)));
+      return kBadInput;
+    }
+    window.view()->camera().zoom(static_cast<float>(zoom));
     const QString out = parser.value(shotOpt);
     int rc = 0;
     auto take = [&] {
@@ -212,6 +239,11 @@ int main(int argc, char** argv) {
           pushed = nearestVertex(window.view()->mesh(), push);
           if (pushed) pushedFrom = window.view()->mesh().positions[*pushed];
         }
+        if (hasCut && !window.cutAcrossTop(cut[0], cut[1], cut[2], cut[3], cut[4])) {
+          printError(QStringLiteral("--cut: this build has no cutting module (ld_sim_cutting)"));
+          rc = kBadInput;
+          QApplication::quit();
+        }
         return;
       }
       if (session->simTime() < startTime + simTime) return;
@@ -226,9 +258,13 @@ int main(int argc, char** argv) {
           moved[a] = static_cast<double>(shown.positions[*pushed][a]) - static_cast<double>(pushedFrom[a]);
       std::printf(
           "{\"settled\":true,\"settle_sim_time_s\":%.4f,\"sim_time_s\":%.4f,\"min_z\":%.4f,\"max_z\":%.4f,"
-          "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"status\":\"%s\"}\n",
+          "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"cut_wall_triangles\":%zu,"
+          "\"triangles_cut\":%ld,\"status\":\"%s\"}\n",
           startTime, session->simTime(), static_cast<double>(b.min[2]), static_cast<double>(b.max[2]), moved[0],
-          moved[1], moved[2], shown.positions.size(), shown.triangles.size(), qPrintable(session->status()));
+          moved[1], moved[2], shown.positions.size(), shown.triangles.size(),
+          static_cast<std::size_t>(
+              std::count_if(shown.faceKind.begin(), shown.faceKind.end(), [](auto k) { return k != 0; })),
+          session->trianglesCut(), qPrintable(session->status()));
       take();
     });
     poll.start(10);

@@ -1,7 +1,9 @@
 #include "app/gui/main_window.h"
 
 #include <QAction>
+#include <QActionGroup>
 #include <QApplication>
+#include <QDoubleSpinBox>
 #include <QFileDialog>
 #include <QFileInfo>
 #include <QKeySequence>
@@ -11,6 +13,10 @@
 #include <QProgressDialog>
 #include <QStatusBar>
 #include <QTimer>
+#include <QToolBar>
+
+#include <algorithm>
+#include <cmath>
 
 #include "app/gui/mesh_view.h"
 #include "app/gui/resource_paths.h"
@@ -21,7 +27,10 @@
 namespace ld::gui {
 
 #ifndef LD_GUI_HAVE_PHYSICS
-class PhysicsSession {};  // never created: the physics module is not built
+class PhysicsSession {  // never created: the physics module is not built
+ public:
+  static bool cuttingAvailable() { return false; }
+};
 #endif
 
 bool MainWindow::physicsAvailable() {
@@ -55,6 +64,30 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     pushTarget_ = p;
   });
   connect(view_, &MeshView::pushMoved, this, [this](const QVector3D& target) { pushTarget_ = target; });
+  connect(view_, &MeshView::cutStarted, this, [this](const QVector3D& p, const QVector3D& n) {
+    cutting_ = true;
+    cutLast_ = p;
+    cutNormal_ = n;
+  });
+  connect(view_, &MeshView::cutMoved, this, [this](const QVector3D& p) {
+#ifdef LD_GUI_HAVE_PHYSICS
+    // Samples every half millimetre or more: the engine sub-samples long moves itself.
+    if (!physics_ || !cutting_ || (p - cutLast_).length() < 0.5F) return;
+    const QVector3D motion = p - cutLast_;
+    physics_->cutSample(Eigen::Vector3d(p.x(), p.y(), p.z()),
+                        Eigen::Vector3d(cutNormal_.x(), cutNormal_.y(), cutNormal_.z()),
+                        Eigen::Vector3d(motion.x(), motion.y(), motion.z()), cutDepth_ ? cutDepth_->value() : 2.0);
+    cutLast_ = p;
+#else
+    (void)p;
+#endif
+  });
+  connect(view_, &MeshView::cutEnded, this, [this] {
+    cutting_ = false;
+#ifdef LD_GUI_HAVE_PHYSICS
+    if (physics_) physics_->endCut();
+#endif
+  });
   connect(view_, &MeshView::pushEnded, this, [this] {
     pushVertex_.reset();
 #ifdef LD_GUI_HAVE_PHYSICS
@@ -87,6 +120,24 @@ void MainWindow::restartPhysics() {
   }
   physics_ = std::make_unique<PhysicsSession>(*original_);
   frameTimer_->start();
+#endif
+}
+
+bool MainWindow::cutAcrossTop(double x0, double y0, double x1, double y1, double depth) {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (!physics_ || !PhysicsSession::cuttingAvailable()) return false;
+  pollPhysics();
+  const Bounds b = view_->mesh().bounds();
+  const Eigen::Vector3d from(x0, y0, b.max[2]), to(x1, y1, b.max[2]);
+  const Eigen::Vector3d motion = to - from;
+  const int n = std::max(1, static_cast<int>(std::ceil(motion.norm() / 0.5)));
+  for (int k = 0; k <= n; ++k)
+    physics_->cutSample(from + (static_cast<double>(k) / n) * motion, Eigen::Vector3d::UnitZ(), motion, depth);
+  physics_->endCut();
+  return true;
+#else
+  (void)x0, (void)y0, (void)x1, (void)y1, (void)depth;
+  return false;
 #endif
 }
 
@@ -149,17 +200,48 @@ void MainWindow::buildMenus() {
       if (on != physicsEnabled_) setPhysicsEnabled(on);
     });
     sim->addAction(tr("R&estart from the loaded model"), this, [this] { restartPhysics(); });
-    QAction* pushMode = sim->addAction(tr("&Push with a plain left drag"));
-    pushMode->setCheckable(true);
-    connect(pushMode, &QAction::toggled, view_, &MeshView::setPushMode);
+    sim->addSeparator();
+    // What a plain left drag does: orbit the camera, push the tissue, or cut it.
+    auto* group = new QActionGroup(this);
+    QAction* orbit = sim->addAction(tr("Left drag &orbits"));
+    QAction* push = sim->addAction(tr("Left drag &pushes"));
+    QAction* cut = sim->addAction(tr("Left drag &cuts (scalpel)"));
+    for (QAction* a : {orbit, push, cut}) {
+      a->setCheckable(true);
+      group->addAction(a);
+    }
+    orbit->setChecked(true);
+    orbit->setShortcut(QKeySequence(Qt::Key_1));
+    push->setShortcut(QKeySequence(Qt::Key_2));
+    cut->setShortcut(QKeySequence(Qt::Key_3));
+    cut->setEnabled(PhysicsSession::cuttingAvailable());
+    connect(orbit, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Orbit); });
+    connect(push, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Push); });
+    connect(cut, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Cut); });
+
+    QToolBar* tools = addToolBar(tr("Tools"));
+    tools->addAction(orbit);
+    tools->addAction(push);
+    tools->addAction(cut);
+    tools->addSeparator();
+    cutDepth_ = new QDoubleSpinBox(this);
+    cutDepth_->setRange(0.2, 20.0);
+    cutDepth_->setSingleStep(0.5);
+    cutDepth_->setValue(2.0);
+    cutDepth_->setSuffix(tr(" mm"));
+    cutDepth_->setToolTip(tr("Scalpel depth below the surface (deeper than the tissue cuts through)"));
+    tools->addWidget(new QLabel(tr(" Cut depth "), this));
+    tools->addWidget(cutDepth_);
   }
 
   QMenu* help = menuBar()->addMenu(tr("&Help"));
   help->addAction(tr("&Mouse controls"), this, [this] {
-    QMessageBox::information(this, tr("Mouse controls"),
-                             tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
-                                "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe\n"
-                                "Ctrl + left drag: push or pull the tissue (physics running)\nSpace: physics on/off"));
+    QMessageBox::information(
+        this, tr("Mouse controls"),
+        tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
+           "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe\n"
+           "Ctrl + left drag: push or pull the tissue (physics running)\n"
+           "1 / 2 / 3: left drag orbits / pushes / cuts at the toolbar's depth\nSpace: physics on/off"));
   });
   help->addAction(tr("&About"), this, [this] {
     QMessageBox::about(

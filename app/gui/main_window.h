@@ -14,6 +14,7 @@ class QLabel;
 class QTimer;
 class QProgressDialog;
 class QAction;
+class QDoubleSpinBox;
 
 #include <QVector3D>
 
@@ -44,6 +45,9 @@ class MainWindow : public QMainWindow {
   [[nodiscard]] PhysicsSession* physics() const { return physics_.get(); }
   // Pulls the latest snapshot into the view (the frame timer calls it).
   void pollPhysics();
+  // One straight scalpel stroke across the top of the tissue (scripted cutting):
+  // from (x0, y0) to (x1, y1) at `depth` mm below the highest point.
+  bool cutAcrossTop(double x0, double y0, double x1, double y1, double depth);
 
  public slots:
   void openModel();
@@ -76,6 +80,9 @@ class MainWindow : public QMainWindow {
 #ifdef LD_GUI_HAVE_SIM_IO
   std::optional<mesh::SurfaceMesh> original_;  // the model as loaded, to restart from
 #endif
+  QDoubleSpinBox* cutDepth_ = nullptr;
+  QVector3D cutLast_, cutNormal_;
+  bool cutting_ = false;
   std::optional<std::uint32_t> pushVertex_;
   QVector3D pushTarget_;
 };

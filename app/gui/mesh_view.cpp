@@ -96,7 +96,8 @@ void MeshView::upload() {
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
-  glDisableVertexAttribArray(2);  // colour: a constant attribute, set per draw
+  glEnableVertexAttribArray(2);  // face kind: surface or cut wall
+  glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));
   vao_.release();
   dirty_ = false;
 }
@@ -121,7 +122,8 @@ void MeshView::paintGL() {
   program_->setUniformValue("uKeyLightEye", QVector3D(-0.5F * d, 0.9F * d, -0.4F * d));
 
   vao_.bind();
-  program_->setAttributeValue(2, kTissueColor[0], kTissueColor[1], kTissueColor[2]);
+  program_->setUniformValue("uTissueColor", QVector3D(kTissueColor[0], kTissueColor[1], kTissueColor[2]));
+  program_->setUniformValue("uInteriorColor", QVector3D(kInteriorColor[0], kInteriorColor[1], kInteriorColor[2]));
   program_->setUniformValue("uWire", false);
   // Push the surface back a little so the wireframe overlay is not buried in it.
   glEnable(GL_POLYGON_OFFSET_FILL);
@@ -167,6 +169,7 @@ std::optional<PickHit> MeshView::pick(const QPointF& windowPos) const {
     h.face = static_cast<std::uint32_t>(f);
     h.point = origin + dist * dir;
     h.distance = dist;
+    h.normal = QVector3D::crossProduct(e1, e2).normalized();
     const float w0 = 1.0F - u - v;
     h.vertex = (w0 >= u && w0 >= v) ? t[0] : (u >= v ? t[1] : t[2]);
     best = h;
@@ -188,9 +191,20 @@ std::optional<QVector3D> MeshView::dragPoint(const QPointF& windowPos, const QVe
 
 void MeshView::mousePressEvent(QMouseEvent* e) {
   lastMouse_ = e->position().toPoint();
-  const bool pushGesture =
-      pushEnabled_ && e->button() == Qt::LeftButton &&
-      ((e->modifiers() & Qt::ControlModifier) || (pushMode_ && !(e->modifiers() & Qt::ShiftModifier)));
+  const bool plainLeft = e->button() == Qt::LeftButton && !(e->modifiers() & (Qt::ShiftModifier | Qt::ControlModifier));
+  const bool pushGesture = pushEnabled_ && e->button() == Qt::LeftButton &&
+                           ((e->modifiers() & Qt::ControlModifier) || (plainLeft && leftDrag_ == LeftDrag::Push));
+  if (pushEnabled_ && plainLeft && leftDrag_ == LeftDrag::Cut) {
+    if (const auto hit = pick(e->position())) {
+      drag_ = Drag::Cut;
+      pushPoint_ = hit->point;
+      cutNormal_ = hit->normal;
+      emit cutStarted(hit->point, hit->normal);
+    } else {
+      drag_ = Drag::None;
+    }
+    return;
+  }
   if (pushGesture) {
     if (const auto hit = pick(e->position())) {
       drag_ = Drag::Push;
@@ -214,6 +228,19 @@ void MeshView::mouseMoveEvent(QMouseEvent* e) {
     if (const auto target = dragPoint(e->position(), pushPoint_)) emit pushMoved(*target);
     return;
   }
+  if (drag_ == Drag::Cut) {
+    // Follow the cursor on the tangent plane where the stroke began.
+    const QVector3D origin = camera_.eye();
+    const QVector3D dir =
+        camera_.rayDirection(static_cast<float>(e->position().x()), static_cast<float>(e->position().y()),
+                             static_cast<float>(width()), static_cast<float>(height()));
+    const float denom = QVector3D::dotProduct(dir, cutNormal_);
+    if (std::abs(denom) > 1e-6F) {
+      const float t = QVector3D::dotProduct(pushPoint_ - origin, cutNormal_) / denom;
+      if (t > 0.0F) emit cutMoved(origin + t * dir);
+    }
+    return;
+  }
   if (drag_ == Drag::Orbit)
     camera_.orbit(static_cast<float>(d.x()), static_cast<float>(d.y()));
   else if (drag_ == Drag::Pan)
@@ -225,6 +252,7 @@ void MeshView::mouseMoveEvent(QMouseEvent* e) {
 
 void MeshView::mouseReleaseEvent(QMouseEvent*) {
   if (drag_ == Drag::Push) emit pushEnded();
+  if (drag_ == Drag::Cut) emit cutEnded();
   drag_ = Drag::None;
 }
 

@@ -25,8 +25,12 @@ struct PickHit {
   std::uint32_t face = 0;
   std::uint32_t vertex = 0;  // the face's corner nearest the hit
   QVector3D point;
+  QVector3D normal;    // the face's unit normal
   float distance = 0;  // along the ray from the eye
 };
+
+// What a plain left drag does.
+enum class LeftDrag { Orbit, Push, Cut };
 
 class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   Q_OBJECT
@@ -61,13 +65,19 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void fitToView();
   void resetView();
   void setPushEnabled(bool on) { pushEnabled_ = on; }
-  void setPushMode(bool on) { pushMode_ = on; }
+  void setLeftDrag(LeftDrag mode) { leftDrag_ = mode; }
+  [[nodiscard]] LeftDrag leftDrag() const { return leftDrag_; }
 
  signals:
   void glReady(const QString& rendererInfo);
   void pushStarted(std::uint32_t vertex, const QVector3D& point);
   void pushMoved(const QVector3D& target);
   void pushEnded();
+  // A scalpel stroke: the surface point and normal where it starts, then points on
+  // the plane through that point (with that normal) under the cursor.
+  void cutStarted(const QVector3D& point, const QVector3D& normal);
+  void cutMoved(const QVector3D& point);
+  void cutEnded();
 
  protected:
   void initializeGL() override;
@@ -80,7 +90,7 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void wheelEvent(QWheelEvent* e) override;
 
  private:
-  enum class Drag { None, Orbit, Pan, Push };
+  enum class Drag { None, Orbit, Pan, Push, Cut };
   void upload();
   [[nodiscard]] float aspect() const;
 
@@ -92,8 +102,9 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   Drag drag_ = Drag::None;
   QPoint lastMouse_;
   bool pushEnabled_ = false;
-  bool pushMode_ = false;
+  LeftDrag leftDrag_ = LeftDrag::Orbit;
   QVector3D pushPoint_;
+  QVector3D cutNormal_;
   QString rendererInfo_;
 
   std::unique_ptr<QOpenGLShaderProgram> program_;

@@ -5,8 +5,10 @@
 // spring between the picked vertex and the cursor's point.
 #include <QString>
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -17,6 +19,13 @@
 
 namespace ld::physics {
 class SimulationLoop;
+}
+namespace ld::cutting {
+class CutEngine;
+struct StepResult;
+}  // namespace ld::cutting
+namespace ld::physics {
+struct State;
 }
 
 namespace ld::gui {
@@ -44,14 +53,36 @@ class PhysicsSession {
   // A force spread over the patch around the vertex nearest `point` (--push).
   void forceAt(const Eigen::Vector3d& point, const Eigen::Vector3d& force);
 
+  // Scalpel cutting (when the cutting module is built): one stroke sample with the
+  // blade's tip `depth` mm under the surface point `surface` whose outward normal is
+  // `normal`, moving along `motion`. Runs on the simulation thread between steps.
+  [[nodiscard]] static bool cuttingAvailable();
+  void cutSample(const Eigen::Vector3d& surface, const Eigen::Vector3d& normal, const Eigen::Vector3d& motion,
+                 double depth);
+  void endCut();
+  [[nodiscard]] long trianglesCut() const { return trianglesCut_.load(); }
+
   [[nodiscard]] bool settled() const;
   [[nodiscard]] double settleProgress() const;
   [[nodiscard]] double simTime() const;
   [[nodiscard]] QString status() const;  // one line for the status bar
 
  private:
+  void storeFaceKinds(const mesh::SurfaceMesh& m);
+  void afterCut(physics::State& st, const cutting::StepResult& r);
+
   // Force f spread over the patch around vertex (total f).
   void applyPatchForce(std::uint32_t vertex, const Eigen::Vector3d& f);
+
+  // Declared before the loop so it outlives the simulation thread that uses it.
+  std::unique_ptr<cutting::CutEngine> engine_;
+  int objectId_ = -1;
+  std::atomic<long> trianglesCut_{0};
+  mutable std::mutex kindsMutex_;
+  std::vector<std::uint8_t> kinds_;  // per live face, as the snapshot lists them
+  std::uint64_t kindsTopology_ = ~std::uint64_t{0};
+  RenderMesh pieces_;  // parts a cut-through set free (shown, not simulated)
+  std::uint64_t piecesVersion_ = 0, piecesShown_ = 0;
 
   std::unique_ptr<physics::SimulationLoop> loop_;
   std::uint64_t lastSerial_ = 0;

@@ -65,7 +65,8 @@ std::vector<float> buildCornerBuffer(const RenderMesh& m, float creaseDegrees) {
         len = 1.0F;
       }
       const auto& p = m.positions[v];
-      out.insert(out.end(), {p[0], p[1], p[2], n[0] / len, n[1] / len, n[2] / len});
+      const float kind = f < m.faceKind.size() && m.faceKind[f] != 0 ? 1.0F : 0.0F;
+      out.insert(out.end(), {p[0], p[1], p[2], n[0] / len, n[1] / len, n[2] / len, kind});
     }
   }
   return out;

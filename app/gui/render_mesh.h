@@ -20,15 +20,19 @@ struct Bounds {
 struct RenderMesh {
   std::vector<Vec3f> positions;
   std::vector<Triangle> triangles;  // counter-clockwise seen from the front
+  // Per triangle: 0 tissue surface, otherwise a cut wall (drawn in the interior
+  // colour). Empty means all surface.
+  std::vector<std::uint8_t> faceKind;
 
   [[nodiscard]] Bounds bounds() const;
   [[nodiscard]] bool empty() const { return triangles.empty(); }
 };
 
-// Six floats per triangle corner: position, then unit normal. Corner normals average
-// the area-weighted normals of the faces around the vertex that lie within
-// `creaseDegrees` of the corner's own face.
-constexpr int kFloatsPerCorner = 6;
+// Seven floats per triangle corner: position, unit normal, and the face kind (0 for
+// surface, 1 for a cut wall). Corner normals average the area-weighted normals of
+// the faces around the vertex that lie within `creaseDegrees` of the corner's own
+// face.
+constexpr int kFloatsPerCorner = 7;
 std::vector<float> buildCornerBuffer(const RenderMesh& m, float creaseDegrees = 50.0F);
 
 }  // namespace ld::gui

@@ -130,15 +130,21 @@ TEST(GuiScreenshot, OpenMeshWithTwoSidedLighting) {
 #endif
 
 #ifdef LD_GUI_HAVE_PHYSICS
+// The JSON line --physics prints (the last line of stdout that starts with a brace).
+nlohmann::json lastJson(const std::string& out) {
+  const auto brace = out.rfind("\n{");
+  const auto start = brace == std::string::npos ? out.find('{') : brace + 1;
+  if (start == std::string::npos) return {};
+  return nlohmann::json::parse(out.substr(start, out.find('\n', start) - start));
+}
+
 TEST(GuiScreenshot, PhysicsSettlesAndAPushDentsTheTissue) {
   LD_REQUIRE_DISPLAY();
   const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "push",
                             "--physics --push 0,0,2.5,0,0,-300 --sim-time 0.5");
   expectShowsTissue(s, 0.5);
-  // The JSON line is the last line of stdout.
-  const auto brace = s.run.out.find('{');
-  ASSERT_NE(brace, std::string::npos) << s.run.out;
-  const auto j = nlohmann::json::parse(s.run.out.substr(brace, s.run.out.find('\n', brace) - brace));
+  const auto j = lastJson(s.run.out);
+  ASSERT_TRUE(j.is_object()) << s.run.out;
   EXPECT_TRUE(j.at("settled").get<bool>());
   EXPECT_GE(j.at("sim_time_s").get<double>(), j.at("settle_sim_time_s").get<double>() + 0.5);
   const auto d = j.at("pushed_displacement");
@@ -146,6 +152,40 @@ TEST(GuiScreenshot, PhysicsSettlesAndAPushDentsTheTissue) {
   EXPECT_LT(std::abs(d[0].get<double>()) + std::abs(d[1].get<double>()), 0.5) << "straight down";
   EXPECT_EQ(j.at("triangles").get<int>(), 10144);
 }
+
+#ifdef LD_GUI_HAVE_CUTTING
+TEST(GuiScreenshot, ScalpelStrokeCutsAGrooveWithInteriorWalls) {
+  LD_REQUIRE_DISPLAY();
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "cut",
+                            "--physics --cut -20,0,20,0,2 --sim-time 0.3 --zoom 4");
+  ASSERT_EQ(s.run.exitCode, 0) << s.run.err;
+  const auto j = lastJson(s.run.out);
+  EXPECT_GT(j.at("triangles").get<int>(), 10144) << "the cut adds triangles";
+  EXPECT_GT(j.at("cut_wall_triangles").get<int>(), 20) << "groove walls along a 40 mm stroke";
+  ASSERT_FALSE(s.image.isNull());
+  // The groove shows as a dark (interior-coloured, shadowed) line across the middle:
+  // some column through the centre has a pixel much darker than the surface around.
+  int darkRows = 0;
+  for (int y = 150; y < 250; ++y) {
+    const QColor c = s.image.pixelColor(320, y);
+    if (c.red() < 150 && c.red() > c.blue()) ++darkRows;
+  }
+  EXPECT_GT(darkRows, 0) << "no groove visible at the image centre";
+}
+
+TEST(GuiScreenshot, CutThroughSeparatesAndKeepsBothPiecesVisible) {
+  LD_REQUIRE_DISPLAY();
+  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "tissue_slab.obj", "through",
+                            "--physics --cut -50,0,50,0,8 --sim-time 0.3");
+  expectShowsTissue(s, 0.5);
+  const auto j = lastJson(s.run.out);
+  EXPECT_GT(j.at("triangles").get<int>(), 10144);
+  EXPECT_GT(j.at("cut_wall_triangles").get<int>(), 0);
+  // Both halves are still drawn: tissue above and below the cut line.
+  EXPECT_TRUE(isTissue(s.image.pixel(320, 170)));
+  EXPECT_TRUE(isTissue(s.image.pixel(320, 240)));
+}
+#endif
 
 TEST(GuiScreenshot, PushWithoutPhysicsIsBadInput) {
   LD_REQUIRE_DISPLAY();
