@@ -1,0 +1,102 @@
+// Drives the real window with synthetic mouse events: Ctrl+drag pushes the tissue,
+// a drag in scalpel mode cuts it. Needs an X display (skips without DISPLAY).
+#include <QApplication>
+#include <QElapsedTimer>
+#include <QMouseEvent>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <memory>
+
+#include "app/gui/main_window.h"
+#include "app/gui/mesh_view.h"
+#include "app/gui/physics_session.h"
+#include "tests/support/test_support.h"
+
+namespace {
+
+using ld::gui::MainWindow;
+using ld::gui::MeshView;
+
+bool haveDisplay() { return std::getenv("DISPLAY") && *std::getenv("DISPLAY"); }
+
+// Runs the event loop until cond holds (generous wall-clock bound, not a timing test).
+bool spinUntil(const std::function<bool()>& cond, int ms = 60000) {
+  QElapsedTimer t;
+  t.start();
+  while (!cond()) {
+    if (t.elapsed() > ms) return false;
+    QApplication::processEvents(QEventLoop::AllEvents, 20);
+  }
+  return true;
+}
+
+void mouse(MeshView* v, QEvent::Type type, QPointF p, Qt::MouseButton button, Qt::KeyboardModifiers mods) {
+  const Qt::MouseButtons buttons = type == QEvent::MouseButtonRelease ? Qt::NoButton : Qt::MouseButtons(Qt::LeftButton);
+  QMouseEvent e(type, p, v->mapToGlobal(p), button, buttons, mods);
+  QApplication::sendEvent(v, &e);
+}
+
+class GuiInteraction : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!haveDisplay()) GTEST_SKIP() << "no X display (DISPLAY unset): run under xvfb-run";
+    static int argc = 1;
+    static char name[] = "ld_gui_interaction_test";
+    static char* argv[] = {name, nullptr};
+    if (!QApplication::instance()) app_ = new QApplication(argc, argv);
+    window_ = std::make_unique<MainWindow>();
+    window_->setPhysicsEnabled(true);
+    window_->view()->setFixedSize(640, 400);
+    window_->loadModelNow(QString::fromStdString((ld::test::resourcesDir() / "models" / "tissue_slab.obj").string()));
+    window_->show();
+    window_->view()->fitToView();
+    ASSERT_TRUE(spinUntil([&] { return window_->physics() && window_->physics()->settled(); }));
+    spinUntil([] { return false; }, 200);  // a few frames
+  }
+  void TearDown() override { window_.reset(); }
+
+  QApplication* app_ = nullptr;  // kept for the process (Qt wants one per process)
+  std::unique_ptr<MainWindow> window_;
+};
+
+TEST_F(GuiInteraction, CtrlDragPushesTheTissueAndReleaseLetsItBack) {
+  MeshView* v = window_->view();
+  const QPointF centre(320, 200);
+  const auto hit = v->pick(centre);
+  ASSERT_TRUE(hit.has_value()) << "the slab is under the centre of the view";
+  const float z0 = v->mesh().positions[hit->vertex][2];
+  mouse(v, QEvent::MouseButtonPress, centre, Qt::LeftButton, Qt::ControlModifier);
+  // Drag down the screen: the cursor's point goes below and toward the viewer.
+  for (int k = 1; k <= 10; ++k)
+    mouse(v, QEvent::MouseMove, centre + QPointF(0, 4.0 * k), Qt::NoButton, Qt::ControlModifier);
+  ASSERT_TRUE(spinUntil([&] { return v->mesh().positions[hit->vertex][2] < z0 - 0.5F; }))
+      << "the picked vertex did not follow the cursor";
+  mouse(v, QEvent::MouseButtonRelease, centre + QPointF(0, 40), Qt::LeftButton, Qt::ControlModifier);
+  EXPECT_TRUE(spinUntil([&] { return std::abs(v->mesh().positions[hit->vertex][2] - z0) < 0.1F; }))
+      << "the tissue did not return after release";
+}
+
+TEST_F(GuiInteraction, DragInScalpelModeCutsAGroove) {
+  if (!ld::gui::PhysicsSession::cuttingAvailable()) GTEST_SKIP() << "no cutting module in this build";
+  MeshView* v = window_->view();
+  const std::size_t before = v->mesh().triangles.size();
+  v->setLeftDrag(ld::gui::LeftDrag::Cut);
+  const QPointF start(240, 200);
+  ASSERT_TRUE(v->pick(start).has_value());
+  mouse(v, QEvent::MouseButtonPress, start, Qt::LeftButton, Qt::NoModifier);
+  for (int k = 1; k <= 40; ++k) mouse(v, QEvent::MouseMove, start + QPointF(4.0 * k, 0), Qt::NoButton, Qt::NoModifier);
+  mouse(v, QEvent::MouseButtonRelease, start + QPointF(160, 0), Qt::LeftButton, Qt::NoModifier);
+  ASSERT_TRUE(spinUntil([&] { return v->mesh().triangles.size() > before; })) << "no triangles were added";
+  ASSERT_TRUE(spinUntil([&] {
+    const auto& k = v->mesh().faceKind;
+    return std::count_if(k.begin(), k.end(), [](auto x) { return x != 0; }) > 10;
+  })) << "no groove walls";
+  EXPECT_TRUE(window_->physics()->status().contains("cut"));
+}
+
+}  // namespace
