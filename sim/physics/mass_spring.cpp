@@ -226,19 +226,28 @@ View makeView(const Params& p, const State& s) {
 }
 
 // Spring forces of springs [begin, end) scattered into f; returns their energy.
+// Springs are sorted by their first vertex, so the first vertex's force is summed in
+// registers and stored once per run (no store-to-load chain through f[i]).
 double springRange(const View& w, const Vec3* x, Vec3* f, std::size_t begin, std::size_t end) {
   double pe = 0.0;
-  for (std::size_t s = begin; s < end; ++s) {
-    const Spring& sp = w.springs[s];
-    const Vec3 d = x[sp.j] - x[sp.i];
-    const double l = d.norm();
-    const double stretch = l - sp.rest;
-    pe += 0.5 * sp.k * stretch * stretch;
-    if (l > 0.0) {
-      const Vec3 fi = (sp.k * stretch / l) * d;
-      f[sp.i] += fi;
-      f[sp.j] -= fi;
+  std::size_t s = begin;
+  while (s < end) {
+    const std::uint32_t i = w.springs[s].i;
+    const Vec3 xi = x[i];
+    Vec3 acc = Vec3::Zero();
+    for (; s < end && w.springs[s].i == i; ++s) {
+      const Spring& sp = w.springs[s];
+      const Vec3 d = x[sp.j] - xi;
+      const double l = d.norm();
+      const double stretch = l - sp.rest;
+      pe += 0.5 * sp.k * stretch * stretch;
+      if (l > 0.0) {
+        const Vec3 fi = (sp.k * stretch / l) * d;
+        acc += fi;
+        f[sp.j] -= fi;
+      }
     }
+    f[i] += acc;
   }
   return pe;
 }
