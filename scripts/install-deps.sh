@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages lapdissect needs. Idempotent and quick when all is present.
 set -euo pipefail
 pkgs=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build pkg-config ccache
   qt6-base-dev qt6-charts-dev libqt6opengl6-dev libqt6openglwidgets6
   libqt6sql6-sqlite libqt6sql6-psql qt6-svg-dev libgl-dev
   libeigen3-dev libsodium-dev libassimp-dev nlohmann-json3-dev

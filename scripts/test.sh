@@ -11,10 +11,16 @@ cd "$(dirname "$0")/.."
 root=$(pwd)
 bash scripts/install-deps.sh
 jobs=$(nproc)
+# ccache makes repeated runs on one machine fast; correctness never depends on it.
+export CCACHE_BASEDIR="$root" CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G} CCACHE_NOHASHDIR=1
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+start=$(date +%s)
+stage() { echo "== $1 (at $(( $(date +%s) - start ))s)"; }
 fuzz_seconds=${LD_FUZZ_SECONDS:-20}
 
-echo "== 1/3 Release build and all tests"
-cmake -S . -B build-test -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_WERROR=ON >/dev/null
+stage "1/3 Release build and all tests"
+cmake -S . -B build-test -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_WERROR=ON "${launcher[@]}" >/dev/null
 cmake --build build-test -j"$jobs"
 xvfb-run -a -s "-screen 0 1920x1080x24" ctest --test-dir build-test --output-on-failure -j"$jobs" --timeout 600
 
@@ -22,17 +28,17 @@ if [ "${LD_TEST_QUICK:-0}" = 1 ]; then
   exit 0
 fi
 
-echo "== 2/3 ASan/UBSan build of the sim core, parser and assessment tests"
+stage "2/3 ASan/UBSan build of the sim core, parser and assessment tests"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLD_WITH_QT=OFF -DLD_SANITIZE=ON \
-  -DLD_WERROR=ON -DLD_BUILD_BENCHMARKS=OFF >/dev/null
+  -DLD_WERROR=ON -DLD_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
 cmake --build build-asan -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   LD_PROPERTY_SCALE=${LD_PROPERTY_SCALE:-0.25} \
   ctest --test-dir build-asan -L sanitize --output-on-failure -j"$jobs" --timeout 900
 
-echo "== 3/3 libFuzzer, ${fuzz_seconds}s per parser"
+stage "3/3 libFuzzer, ${fuzz_seconds}s per parser"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLD_WITH_QT=OFF \
-  -DLD_FUZZ=ON -DLD_BUILD_TESTS=ON -DLD_BUILD_BENCHMARKS=OFF >/dev/null
+  -DLD_FUZZ=ON -DLD_BUILD_TESTS=ON -DLD_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
 fuzzers=$(cut -d= -f1 build-fuzz/fuzzers.txt)
 cmake --build build-fuzz -j"$jobs" --target $fuzzers
 while IFS== read -r f corpus; do
@@ -43,4 +49,4 @@ while IFS== read -r f corpus; do
   build-fuzz/fuzz/"$f" -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -timeout=10 "$work" 2>&1 | tail -2
   rm -rf "$work"
 done < build-fuzz/fuzzers.txt
-echo "all test stages passed"
+stage "done: all test stages passed"
