@@ -11,6 +11,7 @@
 #include <unordered_set>
 
 #include "sim/collision/segment_triangle.h"
+#include "sim/cutting/mesh_checks.h"
 
 namespace ld::cutting {
 
@@ -129,7 +130,12 @@ struct CutEngine::Impl {
   }
 
   // ---- physics hooks ---------------------------------------------------------------
+  // Vertices edited in this sample, checked for pinches at its end (safety net).
+  std::vector<std::pair<int, Vertex>> dirty;
+
   void touch(int obj, std::initializer_list<Vertex> vs) {
+    for (Vertex v : vs)
+      if (v.isValid()) dirty.emplace_back(obj, v);
     if (!tissue(obj)) return;
     SurfaceMesh& m = meshOf(obj);
     std::vector<Vertex> list;
@@ -209,10 +215,8 @@ struct CutEngine::Impl {
     const double L = (m.position(b) - m.position(a)).norm();
     const double t = L > 0 ? std::clamp((q - m.position(a)).norm() / L, 0.0, 1.0) : 0.5;
     const Vertex v = m.splitEdge(e, q);
-    if (tissue(obj)) {
-      physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
-      touch(obj, {v});
-    }
+    if (tissue(obj)) physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
+    touch(obj, {v});
     return v;
   }
 
@@ -254,10 +258,8 @@ struct CutEngine::Impl {
     if (bestE >= 0) return splitEdgeAt(obj, e[static_cast<std::size_t>(bestE)], proj);
     const Vec3 bary = barycentric(m, f, P);
     const Vertex nv = m.splitFace(f, P);
-    if (tissue(obj)) {
-      physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
-      touch(obj, {nv});
-    }
+    if (tissue(obj)) physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
+    touch(obj, {nv});
     return nv;
   }
 
@@ -1177,9 +1179,12 @@ struct CutEngine::Impl {
   void separate(int obj) {
     const int idx = indexOf(obj);
     if (idx < 0) return;
+    if (objects[static_cast<std::size_t>(idx)].mesh.connectedComponents().count <= 1) return;
+    // Handles change below: every open cut on this object ends first.
+    endTracksOn(obj);
+    fixPinches();
     const mesh::Components c = objects[static_cast<std::size_t>(idx)].mesh.connectedComponents();
     if (c.count <= 1) return;
-    endTracksOn(obj);
     std::vector<long> size(static_cast<std::size_t>(c.count), 0);
     for (int l : c.faceLabel)
       if (l >= 0) ++size[static_cast<std::size_t>(l)];
@@ -1230,6 +1235,27 @@ struct CutEngine::Impl {
       out.insert(out.end(), mine.begin(), mine.end());
     }
     return out;
+  }
+
+  // Safety net: no vertex around an edit may join two fans.
+  void fixPinches() {
+    auto work = std::move(dirty);
+    dirty.clear();
+    for (const auto& [obj, v] : work) {
+      if (indexOf(obj) < 0) continue;
+      SurfaceMesh& m = meshOf(obj);
+      if (!m.isValid(v)) continue;
+      std::vector<Vertex> ring{v};
+      for (Edge e : m.edges(v)) ring.push_back(m.otherVertex(e, v));
+      for (Vertex x : ring) unpinch(obj, x);
+    }
+  }
+
+  void debugScan(const char* where) {
+    if (!dbg()) return;
+    for (const auto& o : objects)
+      for (Vertex v : o.mesh.vertices())
+        if (!isManifoldVertex(o.mesh, v)) std::cerr << "PINCH after " << where << " at " << v << "\n";
   }
 
   void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {
@@ -1303,6 +1329,7 @@ struct CutEngine::Impl {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
       advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));
+      debugScan("advance");
     }
     // Tracks that lost the blade.
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
@@ -1313,10 +1340,12 @@ struct CutEngine::Impl {
         std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
         if (pi < nTracks && matchOf[pi] < 0) {
           cutOut(t, *P, motionOf(t.segment));
+          debugScan("cutOut");
           continue;
         }
       }
       terminate(t, motionOf(t.segment), bladeOf(t.segment));
+      debugScan("terminate");
     }
     // New crossings start cuts: two with material between them on a closed object
     // make a slide-in through both layers, others a pierce-in.
@@ -1329,6 +1358,7 @@ struct CutEngine::Impl {
         hits[i].used = hits[j].used = true;
         // Upper layer (h0) is the one nearer the edge's far end b.
         startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up);
+        debugScan("startPair");
         continue;
       }
       hits[i].used = true;
@@ -1342,7 +1372,10 @@ struct CutEngine::Impl {
     checkSeparation.clear();
     std::sort(objs.begin(), objs.end());
     objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
+    fixPinches();
+    debugScan("safety net");
     for (int o : objs) separate(o);
+    debugScan("separate");
     for (auto& h : hands) std::erase_if(h.tracks, [](const Track& t) { return !t.alive; });
     if (report) {
       for (const auto& t : hs.tracks) {
@@ -1475,6 +1508,7 @@ StepResult CutEngine::endStroke(Hand hand) {
     for (auto& t : hs.tracks) I.terminate(t);
     hs.tracks.clear();
     hs.hasPrev = false;
+    I.fixPinches();
   });
 }
 
