@@ -170,7 +170,13 @@ void PhysicsSession::storeFaceKinds(const mesh::SurfaceMesh& m) {
 #ifdef LD_GUI_HAVE_CUTTING
 void PhysicsSession::afterCut(physics::State& st, const cutting::StepResult& r) {
   trianglesCut_ += r.trianglesCut;
-  if (!r.topologyChanged) return;
+  bool stale = false;
+  {
+    std::lock_guard lock(kindsMutex_);
+    stale = kindsTopology_ != st.mesh.topologyVersion();
+  }
+  // A refused sample (exception) can leave edits without a result saying so.
+  if (!r.topologyChanged && !stale) return;
   st.invalidate();  // masses and springs changed around the cut
   storeFaceKinds(st.mesh);
   if (r.separated.empty()) return;
@@ -210,8 +216,10 @@ void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vect
     cutting::StepResult r;
     try {
       r = engine_->step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
-    } catch (const std::exception&) {
-      // A refused pose ends nothing else; the tissue stays as it was.
+    } catch (const std::exception& e) {
+      // The engine refused this sample; the stroke goes on with the next one.
+      std::lock_guard lock(kindsMutex_);
+      lastCutError_ = e.what();
     }
     // Look the object up again: a separation may have grown the engine's list.
     st.mesh = std::move(engine_->object(objectId_).mesh);
@@ -260,6 +268,10 @@ QString PhysicsSession::status() const {
   if (warnings) line += QStringLiteral(", %1 stability warnings").arg(warnings);
   if (pushForce_ > 0) line += QStringLiteral(", push %1 mN").arg(pushForce_, 0, 'f', 0);
   if (trianglesCut_ > 0) line += QStringLiteral(", %1 triangles cut").arg(trianglesCut_.load());
+  {
+    std::lock_guard lock(kindsMutex_);
+    if (!lastCutError_.empty()) line += QStringLiteral(", cut refused: %1").arg(QString::fromStdString(lastCutError_));
+  }
   return line;
 }
 

@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -81,6 +82,7 @@ class PhysicsSession {
   mutable std::mutex kindsMutex_;
   std::vector<std::uint8_t> kinds_;  // per live face, as the snapshot lists them
   std::uint64_t kindsTopology_ = ~std::uint64_t{0};
+  std::string lastCutError_;
   RenderMesh pieces_;  // parts a cut-through set free (shown, not simulated)
   std::uint64_t piecesVersion_ = 0, piecesShown_ = 0;
 
