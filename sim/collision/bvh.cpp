@@ -21,29 +21,67 @@ double halfArea(const Box& b) {
   return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
 }
 
-float roundDown(double x) {
-  float f = static_cast<float>(x);
-  if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-  return f;
-}
-float roundUp(double x) {
-  float f = static_cast<float>(x);
-  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
+// Outward rounding to float without libm calls: step away by at least one float
+// ulp (2^-23 relative) before rounding to nearest.
+float roundDown(double x) { return static_cast<float>(x - (std::abs(x) * 1.2e-7 + 1e-30)); }
+float roundUp(double x) { return static_cast<float>(x + (std::abs(x) * 1.2e-7 + 1e-30)); }
 
 }  // namespace
 
-void TriangleBvh::writeHot(std::size_t i) {
-  if (hot_.size() < nodes_.size()) hot_.resize(nodes_.size());
+std::int32_t TriangleBvh::newNode(std::int32_t parent) {
+  nodes_.emplace_back();
+  nodes_.back().parent = parent;
+  HotNode h{};
+  for (int k = 0; k < 3; ++k) {
+    h.lo[k] = std::numeric_limits<float>::infinity();
+    h.hi[k] = -std::numeric_limits<float>::infinity();
+  }
+  h.child[0] = h.child[1] = -1;
+  hot_.push_back(h);
+  return static_cast<std::int32_t>(nodes_.size() - 1);
+}
+
+void TriangleBvh::fitLeaf(const mesh::SurfaceMesh& m, std::size_t i) {
   const Node& n = nodes_[i];
   HotNode& h = hot_[i];
+  h.child[0] = n.child[0];
+  h.child[1] = n.child[1];
+  if (n.count == 0) {
+    for (int k = 0; k < 3; ++k) {
+      h.lo[k] = std::numeric_limits<float>::infinity();
+      h.hi[k] = -std::numeric_limits<float>::infinity();
+    }
+    return;
+  }
+  Box b;
+  for (std::int32_t j = 0; j < n.count; ++j)
+    for (mesh::Vertex v : m.vertices(Face(n.faces[j]))) b.extend(m.position(v));
   for (int k = 0; k < 3; ++k) {
-    h.lo[k] = n.box.empty() ? std::numeric_limits<float>::infinity() : roundDown(n.box.min[k]);
-    h.hi[k] = n.box.empty() ? -std::numeric_limits<float>::infinity() : roundUp(n.box.max[k]);
+    h.lo[k] = roundDown(b.min[k]);
+    h.hi[k] = roundUp(b.max[k]);
+  }
+}
+
+void TriangleBvh::fitInner(std::size_t i) {
+  const Node& n = nodes_[i];
+  HotNode& h = hot_[i];
+  const HotNode& l = hot_[static_cast<std::size_t>(n.child[0])];
+  const HotNode& r = hot_[static_cast<std::size_t>(n.child[1])];
+  for (int k = 0; k < 3; ++k) {
+    h.lo[k] = std::min(l.lo[k], r.lo[k]);
+    h.hi[k] = std::max(l.hi[k], r.hi[k]);
   }
   h.child[0] = n.child[0];
   h.child[1] = n.child[1];
+}
+
+Box TriangleBvh::boxOf(std::size_t i) const {
+  const HotNode& h = hot_[i];
+  Box b;
+  if (!(h.lo[0] <= h.hi[0])) return b;
+  b.min = Vector3d(h.lo[0], h.lo[1], h.lo[2]);
+  b.max = Vector3d(h.hi[0], h.hi[1], h.hi[2]);
+  return b;
 }
 
 double TriangleBvh::effectivePad(const mesh::SurfaceMesh& m, const Tolerance& tol) {
@@ -63,14 +101,6 @@ void TriangleBvh::checkMesh(const mesh::SurfaceMesh& m, const char* where) const
                          ": mesh is smaller than the tree's (another mesh, or compacted without sync())");
 }
 
-void TriangleBvh::leafBox(const mesh::SurfaceMesh& m, Node& n) const {
-  Box b;
-  for (std::int32_t i = 0; i < n.count; ++i) {
-    for (mesh::Vertex v : m.vertices(Face(n.faces[i]))) b.extend(m.position(v));
-  }
-  n.box = b;
-}
-
 void TriangleBvh::build(const mesh::SurfaceMesh& m) {
   nodes_.clear();
   faceLeaf_.assign(m.facesSize(), -1);
@@ -82,15 +112,15 @@ void TriangleBvh::build(const mesh::SurfaceMesh& m) {
     const auto& vs = m.vertices(f);
     centroid[f.idx()] = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
   }
+  hot_.clear();
   nodes_.reserve(2 * faces.size() / kBuildLeafSize + 2);
+  hot_.reserve(nodes_.capacity());
   maxDepth_ = 0;
   if (faces.empty()) {
-    nodes_.emplace_back();  // an empty root leaf keeps every path simple
+    newNode(-1);  // an empty root leaf keeps every path simple
   } else {
     buildRange(m, faces.data(), faces.data() + faces.size(), centroid, -1, 0);
   }
-  hot_.assign(nodes_.size(), HotNode{});
-  for (std::size_t i = 0; i < nodes_.size(); ++i) writeHot(i);
   tracked_ = faces.size();
   pad_ = effectivePad(m, tol_);
   editsSinceBuild_ = 0;
@@ -103,9 +133,7 @@ void TriangleBvh::build(const mesh::SurfaceMesh& m) {
 
 std::int32_t TriangleBvh::buildRange(const mesh::SurfaceMesh& m, std::uint32_t* first, std::uint32_t* last,
                                      std::vector<Vector3d>& centroid, std::int32_t parent, std::size_t depth) {
-  const auto index = static_cast<std::int32_t>(nodes_.size());
-  nodes_.emplace_back();
-  nodes_[static_cast<std::size_t>(index)].parent = parent;
+  const std::int32_t index = newNode(parent);
   maxDepth_ = std::max(maxDepth_, depth);
   const std::ptrdiff_t n = last - first;
   if (n <= kBuildLeafSize) {
@@ -115,7 +143,7 @@ std::int32_t TriangleBvh::buildRange(const mesh::SurfaceMesh& m, std::uint32_t* 
       node.faces[i] = first[i];
       faceLeaf_[first[i]] = index;
     }
-    leafBox(m, node);
+    fitLeaf(m, static_cast<std::size_t>(index));
     return index;
   }
   Box cb;
@@ -130,8 +158,7 @@ std::int32_t TriangleBvh::buildRange(const mesh::SurfaceMesh& m, std::uint32_t* 
   Node& node = nodes_[static_cast<std::size_t>(index)];
   node.child[0] = l;
   node.child[1] = r;
-  node.box = nodes_[static_cast<std::size_t>(l)].box;
-  node.box.extend(nodes_[static_cast<std::size_t>(r)].box);
+  fitInner(static_cast<std::size_t>(index));
   return index;
 }
 
@@ -147,43 +174,30 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   checkMesh(m, "refit");
   // Children always have larger indices than their parent (build is preorder, local
   // splits append), so one backward pass is bottom-up.
-  for (std::size_t i = nodes_.size(); i-- > 0;) {
-    Node& n = nodes_[i];
-    if (n.leaf()) {
-      leafBox(m, n);
-    } else {
-      n.box = nodes_[static_cast<std::size_t>(n.child[0])].box;
-      n.box.extend(nodes_[static_cast<std::size_t>(n.child[1])].box);
-    }
-    writeHot(i);
-  }
+  for (std::size_t i = nodes_.size(); i-- > 0;) fit(m, i);
 }
 
 void TriangleBvh::refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int32_t>& dirty) {
-  // Process nodes from the highest index down; parents always come after children.
-  std::sort(dirty.begin(), dirty.end(), std::greater<>());
-  dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
-  std::make_heap(dirty.begin(), dirty.end());
-  std::int32_t last = -1;
-  while (!dirty.empty()) {
-    std::pop_heap(dirty.begin(), dirty.end());
-    const std::int32_t i = dirty.back();
-    dirty.pop_back();
-    if (i == last) continue;
-    last = i;
-    Node& n = nodes_[static_cast<std::size_t>(i)];
-    if (n.leaf()) {
-      leafBox(m, n);
-    } else {
-      n.box = nodes_[static_cast<std::size_t>(n.child[0])].box;
-      n.box.extend(nodes_[static_cast<std::size_t>(n.child[1])].box);
-    }
-    writeHot(static_cast<std::size_t>(i));
-    if (n.parent >= 0) {
-      dirty.push_back(n.parent);
-      std::push_heap(dirty.begin(), dirty.end());
+  if (dirty.empty()) return;
+  // Collect each dirty node and its ancestors once (stop at an ancestor already
+  // collected), then fit from the highest index down: children come after parents.
+  if (mark_.size() < nodes_.size()) mark_.resize(nodes_.size(), 0);
+  if (++epoch_ == 0) {
+    std::fill(mark_.begin(), mark_.end(), 0);
+    epoch_ = 1;
+  }
+  std::vector<std::int32_t> order;
+  order.reserve(dirty.size() * 4);
+  for (std::int32_t i : dirty) {
+    while (i >= 0 && mark_[static_cast<std::size_t>(i)] != epoch_) {
+      mark_[static_cast<std::size_t>(i)] = epoch_;
+      order.push_back(i);
+      i = nodes_[static_cast<std::size_t>(i)].parent;
     }
   }
+  dirty.clear();
+  std::sort(order.begin(), order.end(), std::greater<>());
+  for (std::int32_t i : order) fit(m, static_cast<std::size_t>(i));
 }
 
 void TriangleBvh::refitFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
@@ -239,10 +253,10 @@ std::int32_t TriangleBvh::chooseLeaf(const mesh::SurfaceMesh& m, Face f) const {
     const Node& n = nodes_[static_cast<std::size_t>(i)];
     double cost[2];
     for (int k = 0; k < 2; ++k) {
-      const Node& c = nodes_[static_cast<std::size_t>(n.child[k])];
-      Box u = c.box;
+      const Box cbox = boxOf(static_cast<std::size_t>(n.child[k]));
+      Box u = cbox;
       u.extend(fb);
-      cost[k] = halfArea(u) - halfArea(c.box);
+      cost[k] = halfArea(u) - halfArea(cbox);
     }
     i = n.child[cost[1] < cost[0] ? 1 : 0];
   }
@@ -275,19 +289,17 @@ void TriangleBvh::splitLeaf(const mesh::SurfaceMesh& m, std::int32_t leaf, std::
       order[static_cast<std::size_t>(j)] = order[static_cast<std::size_t>(j - 1)];
     order[static_cast<std::size_t>(j)] = x;
   }
-  const auto l = static_cast<std::int32_t>(nodes_.size());
-  nodes_.emplace_back();
-  nodes_.emplace_back();  // may reallocate: no references into nodes_ held from here
+  const std::int32_t l = newNode(leaf);
+  newNode(leaf);  // may reallocate: no references into nodes_ held from here
   for (int k = 0; k < 2; ++k) {
     Node& child = nodes_[static_cast<std::size_t>(l + k)];
-    child.parent = leaf;
     const int from = k == 0 ? 0 : count / 2, to = k == 0 ? count / 2 : count;
     for (int i = from; i < to; ++i) {
       const std::uint32_t f = faces[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])];
       child.faces[child.count++] = f;
       faceLeaf_[f] = l + k;
     }
-    leafBox(m, child);
+    fitLeaf(m, static_cast<std::size_t>(l + k));
   }
   Node& parent = nodes_[static_cast<std::size_t>(leaf)];
   parent.count = 0;
@@ -319,7 +331,7 @@ void TriangleBvh::insertFaces(const mesh::SurfaceMesh& m, std::span<const Face> 
       const Node& inner = nodes_[static_cast<std::size_t>(leaf)];
       double cost[2];
       for (int k = 0; k < 2; ++k) {
-        const Box& cbox = nodes_[static_cast<std::size_t>(inner.child[k])].box;
+        const Box cbox = boxOf(static_cast<std::size_t>(inner.child[k]));
         Box u = cbox;
         u.extend(fb);
         cost[k] = halfArea(u) - halfArea(cbox);
@@ -429,6 +441,60 @@ void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const
   }
 }
 
+namespace {
+
+// Separating-axis test of a triangle against the box [lo, hi] (after Akenine-Moller):
+// box axes, the triangle's normal, and the nine edge x axis cross products.
+bool triangleMeetsBox(const Vector3d* t, const Vector3d& lo, const Vector3d& hi) {
+  const Vector3d c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+  const Vector3d v[3] = {t[0] - c, t[1] - c, t[2] - c};
+  for (int k = 0; k < 3; ++k) {
+    if (std::min({v[0][k], v[1][k], v[2][k]}) > h[k] || std::max({v[0][k], v[1][k], v[2][k]}) < -h[k]) return false;
+  }
+  const Vector3d e[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+  const Vector3d n = e[0].cross(e[1]);
+  const double r = h.dot(n.cwiseAbs());
+  const double d = n.dot(v[0]);
+  if (d > r || d < -r) return false;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const Vector3d axis = Vector3d::Unit(k).cross(e[i]);
+      const double p0 = axis.dot(v[0]), p1 = axis.dot(v[1]), p2 = axis.dot(v[2]);
+      const double rad = h.dot(axis.cwiseAbs());
+      if (std::min({p0, p1, p2}) > rad || std::max({p0, p1, p2}) < -rad) return false;
+    }
+  return true;
+}
+
+}  // namespace
+
+void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, const Vector3d& p2,
+                                    std::vector<Face>& out) const {
+  if (hot_.empty()) return;
+  const Vector3d tri[3] = {p0, p1, p2};
+  Box tb;
+  for (const Vector3d& p : tri) tb.extend(p);
+  std::array<std::int32_t, kStack> stack;
+  std::size_t top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const std::int32_t i = stack[--top];
+    const HotNode& h = hot_[static_cast<std::size_t>(i)];
+    const Vector3d lo = Vector3d(h.lo[0], h.lo[1], h.lo[2]).array() - pad_;
+    const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + pad_;
+    if (!(lo.array() <= hi.array()).all()) continue;  // empty leaf
+    if ((lo.array() > tb.max.array()).any() || (hi.array() < tb.min.array()).any()) continue;
+    if (!triangleMeetsBox(tri, lo, hi)) continue;
+    if (h.child[0] < 0) {
+      const Node& n = nodes_[static_cast<std::size_t>(i)];
+      for (std::int32_t k = 0; k < n.count; ++k) out.push_back(Face(n.faces[k]));
+    } else {
+      stack[top++] = h.child[1];
+      stack[top++] = h.child[0];
+    }
+  }
+}
+
 void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
                                    std::vector<SurfaceHit>& out, QueryCounters* counters) const {
   checkMesh(m, "intersectSegment");
@@ -498,8 +564,11 @@ BvhStats TriangleBvh::stats() const {
 std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
   std::ostringstream why;
   std::vector<int> seen(m.facesSize(), 0);
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+  if (hot_.size() != nodes_.size()) why << "hot array out of step\n";
+  for (std::size_t i = 0; i < nodes_.size() && hot_.size() == nodes_.size(); ++i) {
     const Node& n = nodes_[i];
+    const Box nb = boxOf(i);
+    if (hot_[i].child[0] != n.child[0] || hot_[i].child[1] != n.child[1]) why << "hot children of " << i << " stale\n";
     if (n.leaf()) {
       for (std::int32_t k = 0; k < n.count; ++k) {
         const Face f(n.faces[k]);
@@ -511,7 +580,7 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
         if (faceLeaf_[f.idx()] != static_cast<std::int32_t>(i)) why << "faceLeaf of " << f << " is wrong\n";
         for (mesh::Vertex v : m.vertices(f)) {
           const Vector3d& p = m.position(v);
-          if ((p.array() < n.box.min.array()).any() || (p.array() > n.box.max.array()).any())
+          if ((p.array() < nb.min.array()).any() || (p.array() > nb.max.array()).any())
             why << "leaf " << i << " box misses a corner of " << f << "\n";
         }
       }
@@ -520,8 +589,8 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
         const Node& c = nodes_[static_cast<std::size_t>(n.child[k])];
         if (c.parent != static_cast<std::int32_t>(i)) why << "node " << n.child[k] << " has a wrong parent\n";
         if (n.child[k] <= static_cast<std::int32_t>(i)) why << "child index not after its parent\n";
-        if (!c.box.empty() &&
-            ((c.box.min.array() < n.box.min.array()).any() || (c.box.max.array() > n.box.max.array()).any()))
+        const Box cb = boxOf(static_cast<std::size_t>(n.child[k]));
+        if (!cb.empty() && ((cb.min.array() < nb.min.array()).any() || (cb.max.array() > nb.max.array()).any()))
           why << "node " << i << " box misses child " << n.child[k] << "\n";
       }
     }

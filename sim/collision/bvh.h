@@ -94,9 +94,14 @@ class TriangleBvh {
   }
   // Appends every tracked face whose box (grown by the tolerance) overlaps `box`.
   void facesOverlapping(const Box& box, std::vector<mesh::Face>& out) const;
+  // Appends every tracked face in a leaf whose box (grown by the tolerance) meets
+  // triangle (p0, p1, p2) (separating-axis test), for swept queries.
+  void facesNearTriangle(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
+                         std::vector<mesh::Face>& out) const;
 
   [[nodiscard]] bool tracks(mesh::Face f) const { return f.idx() < faceLeaf_.size() && faceLeaf_[f.idx()] >= 0; }
-  [[nodiscard]] Box bounds() const { return nodes_.empty() ? Box{} : nodes_[0].box; }
+  // Root box (float precision, rounded outwards).
+  [[nodiscard]] Box bounds() const { return nodes_.empty() ? Box{} : boxOf(0); }
   [[nodiscard]] const Tolerance& tolerance() const { return tol_; }
   [[nodiscard]] double pad() const { return pad_; }
   [[nodiscard]] BvhStats stats() const;
@@ -105,8 +110,9 @@ class TriangleBvh {
   [[nodiscard]] std::string check(const mesh::SurfaceMesh& m) const;
 
  private:
+  // Structure and leaf contents; the boxes live only in hot_ (floats rounded
+  // outwards), which keeps refits to one small array.
   struct Node {
-    Box box;
     std::int32_t child[2] = {-1, -1};
     std::int32_t parent = -1;
     std::int32_t count = 0;  // faces in a leaf
@@ -119,11 +125,20 @@ class TriangleBvh {
     float lo[3], hi[3];
     std::int32_t child[2];
   };
-  void writeHot(std::size_t i);
+  std::int32_t newNode(std::int32_t parent);
+  void fitLeaf(const mesh::SurfaceMesh& m, std::size_t i);
+  void fitInner(std::size_t i);
+  void fit(const mesh::SurfaceMesh& m, std::size_t i) {
+    if (nodes_[i].leaf()) {
+      fitLeaf(m, i);
+    } else {
+      fitInner(i);
+    }
+  }
+  [[nodiscard]] Box boxOf(std::size_t i) const;
 
   std::int32_t buildRange(const mesh::SurfaceMesh& m, std::uint32_t* first, std::uint32_t* last,
                           std::vector<Eigen::Vector3d>& centroid, std::int32_t parent, std::size_t depth);
-  void leafBox(const mesh::SurfaceMesh& m, Node& n) const;
   void refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int32_t>& dirtyLeaves);
   std::int32_t chooseLeaf(const mesh::SurfaceMesh& m, mesh::Face f) const;
   void splitLeaf(const mesh::SurfaceMesh& m, std::int32_t leaf, std::vector<std::int32_t>& dirty);
@@ -136,6 +151,8 @@ class TriangleBvh {
   double pad_ = 0.0;
   std::vector<Node> nodes_;
   std::vector<HotNode> hot_;
+  std::vector<std::uint32_t> mark_;  // refitUpwards scratch: node visited in this epoch
+  std::uint32_t epoch_ = 0;
   std::vector<std::int32_t> faceLeaf_;  // per face index: its leaf node, or -1
   std::size_t tracked_ = 0;             // live faces in the tree
   std::size_t editsSinceBuild_ = 0, facesAtBuild_ = 0, builds_ = 0;

@@ -35,54 +35,59 @@ SweptContacts sweepSegment(const mesh::SurfaceMesh& m, const TriangleBvh* bvh, c
     out.pathB = intersectSegment(m, b0, b1, tol);
   }
 
-  // Candidate edges: those of faces near the patch.
-  std::vector<Face> candidates;
-  if (bvh) {
-    Box box;
-    for (const Vector3d* p : {&a0, &b0, &a1, &b1}) box.extend(*p);
-    bvh->facesOverlapping(box, candidates);
-  } else {
-    for (Face f : m.faces()) candidates.push_back(f);
-  }
-  std::vector<Edge> edges;
-  edges.reserve(3 * candidates.size());
-  for (Face f : candidates)
-    for (Edge e : m.edges(f)) edges.push_back(e);
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-
   const int strips = sweepStrips(a0, b0, a1, b1, settings);
-  for (Edge e : edges) {
-    const Vector3d& p = m.position(m.vertex(e, 0));
-    const Vector3d& q = m.position(m.vertex(e, 1));
-    for (int j = 0; j < strips; ++j) {
-      const double s0 = static_cast<double>(j) / strips, s1 = static_cast<double>(j + 1) / strips;
-      const Vector3d A0 = a0 + s0 * (a1 - a0), B0 = b0 + s0 * (b1 - b0);
-      const Vector3d A1 = a0 + s1 * (a1 - a0), B1 = b0 + s1 * (b1 - b0);
-      // Triangle 1 (A0, B0, B1): corners at (time, along) (0,0), (0,1), (1,1);
-      // triangle 2 (A0, B1, A1): (0,0), (1,1), (1,0).
-      SegTriResult r = intersectSegmentTriangle(p, q, A0, B0, B1, tol);
-      double localTime = 0.0, along = 0.0;
-      if (r.hit()) {
-        localTime = r.bary[2];
-        along = r.bary[1] + r.bary[2];
+  // Per strip triangle: the edges of faces in leaves the triangle meets (BVH with a
+  // separating-axis test), each tested against that triangle only. An edge keeps
+  // its earliest crossing.
+  std::vector<Face> candidates;
+  std::vector<Edge> edges;
+  std::vector<SweptEdgeCrossing> found;
+  for (int j = 0; j < strips; ++j) {
+    const double s0 = static_cast<double>(j) / strips, s1 = static_cast<double>(j + 1) / strips;
+    const Vector3d A0 = a0 + s0 * (a1 - a0), B0 = b0 + s0 * (b1 - b0);
+    const Vector3d A1 = a0 + s1 * (a1 - a0), B1 = b0 + s1 * (b1 - b0);
+    // Triangle 1 (A0, B0, B1): corners at (time, along) (0,0), (0,1), (1,1);
+    // triangle 2 (A0, B1, A1): (0,0), (1,1), (1,0).
+    for (int k = 0; k < 2; ++k) {
+      const Vector3d& P = A0;
+      const Vector3d& Q = k == 0 ? B0 : B1;
+      const Vector3d& R = k == 0 ? B1 : A1;
+      candidates.clear();
+      if (bvh) {
+        bvh->facesNearTriangle(P, Q, R, candidates);
       } else {
-        r = intersectSegmentTriangle(p, q, A0, B1, A1, tol);
-        if (!r.hit()) continue;
-        localTime = r.bary[1] + r.bary[2];
-        along = r.bary[1];
+        for (Face f : m.faces()) candidates.push_back(f);
       }
-      SweptEdgeCrossing c;
-      c.edge = e;
-      c.edgeT = r.t;
-      c.point = r.point;
-      c.time = std::clamp(s0 + localTime * (s1 - s0), 0.0, 1.0);
-      c.along = std::clamp(along, 0.0, 1.0);
-      c.coplanar = r.kind == HitKind::Coplanar;
-      out.edgeCrossings.push_back(c);
-      break;  // each edge once: its first crossing in time
+      edges.clear();
+      for (Face f : candidates)
+        for (Edge e : m.edges(f)) edges.push_back(e);
+      std::sort(edges.begin(), edges.end());
+      edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+      for (Edge e : edges) {
+        const SegTriResult r =
+            intersectSegmentTriangle(m.position(m.vertex(e, 0)), m.position(m.vertex(e, 1)), P, Q, R, tol);
+        if (!r.hit()) continue;
+        SweptEdgeCrossing c;
+        c.edge = e;
+        c.edgeT = r.t;
+        c.point = r.point;
+        const double localTime = k == 0 ? r.bary[2] : r.bary[1] + r.bary[2];
+        const double along = k == 0 ? r.bary[1] + r.bary[2] : r.bary[1];
+        c.time = std::clamp(s0 + localTime * (s1 - s0), 0.0, 1.0);
+        c.along = std::clamp(along, 0.0, 1.0);
+        c.coplanar = r.kind == HitKind::Coplanar;
+        found.push_back(c);
+      }
     }
   }
+  // Each edge once: its earliest crossing (then the lowest `along`).
+  std::sort(found.begin(), found.end(), [](const SweptEdgeCrossing& x, const SweptEdgeCrossing& y) {
+    if (x.edge != y.edge) return x.edge < y.edge;
+    if (x.time != y.time) return x.time < y.time;
+    return x.along < y.along;
+  });
+  for (std::size_t i = 0; i < found.size(); ++i)
+    if (i == 0 || found[i].edge != found[i - 1].edge) out.edgeCrossings.push_back(found[i]);
   std::sort(out.edgeCrossings.begin(), out.edgeCrossings.end(),
             [](const SweptEdgeCrossing& x, const SweptEdgeCrossing& y) {
               if (x.time != y.time) return x.time < y.time;

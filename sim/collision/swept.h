@@ -7,9 +7,10 @@
 // lines; the surface it sweeps is the bilinear patch through the four points. The
 // patch is cut into N strips in time (N = 1 for a planar motion; more when the
 // motion twists, so that the triangles stay within `maxTwistDeviation` of the
-// patch), each strip into two triangles. Every mesh edge near the patch (BVH box
-// query) is tested against those triangles with the same tolerant segment–triangle
-// test, and the patch's boundary (the segment at both samples and the paths of both
+// patch), each strip into two triangles. Every mesh edge of a face in a BVH leaf
+// that a triangle meets (separating-axis test against the leaf box) is tested
+// against that triangle with the same tolerant segment–triangle test, and the
+// patch's boundary (the segment at both samples and the paths of both
 // ends) is tested against the mesh. A mesh face touches the swept surface exactly
 // when one of its edges crosses the surface or the surface's boundary crosses the
 // face, so the faces reported are all the faces touched (up to the tolerance).
@@ -41,7 +42,7 @@ struct SweptContacts {
 
 struct SweepSettings {
   Tolerance tol;
-  double maxTwistDeviation = 0.01;  // mm: triangles vs. the bilinear patch
+  double maxTwistDeviation = 0.05;  // mm: triangles vs. the bilinear patch
   int maxStrips = 64;
 };
 

@@ -69,8 +69,8 @@ TEST(TriangleBvh, BuildTracksEveryFaceOnce) {
   EXPECT_EQ(bvh.check(m), "");
   const auto s = bvh.stats();
   EXPECT_EQ(s.faces, m.nFaces());
-  EXPECT_LE(s.maxDepth, 12u);  // 1280 faces, leaves of <= 4: a balanced tree
-  EXPECT_TRUE(nearVec(bvh.bounds().max, Vector3d(1, 1, 1), 1e-12));
+  EXPECT_LE(s.maxDepth, 12u);                                       // 1280 faces, leaves of <= 4: a balanced tree
+  EXPECT_TRUE(nearVec(bvh.bounds().max, Vector3d(1, 1, 1), 1e-6));  // boxes are floats rounded outwards
 }
 
 TEST(TriangleBvh, QueriesEqualBruteForceOnSeveralMeshes) {
