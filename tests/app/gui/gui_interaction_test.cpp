@@ -2,6 +2,7 @@
 // a drag in scalpel mode cuts it. Needs an X display (skips without DISPLAY).
 #include <QApplication>
 #include <QElapsedTimer>
+#include <QLabel>
 #include <QMouseEvent>
 
 #include <gtest/gtest.h>
@@ -97,6 +98,22 @@ TEST_F(GuiInteraction, DragInScalpelModeCutsAGroove) {
     return std::count_if(k.begin(), k.end(), [](auto x) { return x != 0; }) > 10;
   })) << "no groove walls";
   EXPECT_TRUE(window_->physics()->status().contains("cut"));
+}
+
+TEST_F(GuiInteraction, BackgroundLoadShowsTheModelAndItsCounts) {
+  bool loaded = false;
+  QString failure;
+  QObject::connect(window_.get(), &MainWindow::modelLoaded, [&] { loaded = true; });
+  QObject::connect(window_.get(), &MainWindow::modelFailed, [&](const QString& e) { failure = e; });
+  window_->loadModelInBackground(QString::fromStdString((ld::test::resourcesDir() / "models" / "organ.obj").string()));
+  ASSERT_TRUE(spinUntil([&] { return loaded || !failure.isEmpty(); })) << "the load never finished";
+  ASSERT_TRUE(failure.isEmpty()) << failure.toStdString();
+  ASSERT_TRUE(spinUntil([&] { return window_->view()->mesh().triangles.size() == 9680u; }));
+  // The status bar names both counts.
+  bool countsShown = false;
+  for (const QLabel* l : window_->findChildren<QLabel*>())
+    if (l->text().contains("Vertices: 4842") && l->text().contains("Triangles: 9680")) countsShown = true;
+  EXPECT_TRUE(countsShown);
 }
 
 }  // namespace
