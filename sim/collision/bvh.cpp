@@ -443,28 +443,37 @@ void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const
 
 namespace {
 
-// Separating-axis test of a triangle against the box [lo, hi] (after Akenine-Moller):
-// box axes, the triangle's normal, and the nine edge x axis cross products.
-bool triangleMeetsBox(const Vector3d* t, const Vector3d& lo, const Vector3d& hi) {
-  const Vector3d c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
-  const Vector3d v[3] = {t[0] - c, t[1] - c, t[2] - c};
-  for (int k = 0; k < 3; ++k) {
-    if (std::min({v[0][k], v[1][k], v[2][k]}) > h[k] || std::max({v[0][k], v[1][k], v[2][k]}) < -h[k]) return false;
+// Separating-axis test of a triangle against boxes (after Akenine-Moller): the box
+// axes (the caller's AABB test), the triangle's normal and the nine edge x axis
+// cross products. The triangle's projections on the ten axes are computed once.
+struct TriangleSat {
+  Vector3d axis[10];
+  double lo[10], hi[10];
+  int n = 0;
+  explicit TriangleSat(const Vector3d* t) {
+    const Vector3d e[3] = {t[1] - t[0], t[2] - t[1], t[0] - t[2]};
+    add(e[0].cross(e[1]), t);
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) add(Vector3d::Unit(k).cross(e[i]), t);
   }
-  const Vector3d e[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
-  const Vector3d n = e[0].cross(e[1]);
-  const double r = h.dot(n.cwiseAbs());
-  const double d = n.dot(v[0]);
-  if (d > r || d < -r) return false;
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) {
-      const Vector3d axis = Vector3d::Unit(k).cross(e[i]);
-      const double p0 = axis.dot(v[0]), p1 = axis.dot(v[1]), p2 = axis.dot(v[2]);
-      const double rad = h.dot(axis.cwiseAbs());
-      if (std::min({p0, p1, p2}) > rad || std::max({p0, p1, p2}) < -rad) return false;
+  void add(const Vector3d& a, const Vector3d* t) {
+    if (a.squaredNorm() == 0.0) return;  // parallel to a box axis: covered by the AABB test
+    const double p0 = a.dot(t[0]), p1 = a.dot(t[1]), p2 = a.dot(t[2]);
+    axis[n] = a;
+    lo[n] = std::min({p0, p1, p2});
+    hi[n] = std::max({p0, p1, p2});
+    ++n;
+  }
+  // Plane only (cheap, for inner nodes) or all axes (leaves).
+  [[nodiscard]] bool meets(const Vector3d& c, const Vector3d& h, bool all) const {
+    const int count = all ? n : std::min(n, 1);
+    for (int i = 0; i < count; ++i) {
+      const double p = axis[i].dot(c), r = h.dot(axis[i].cwiseAbs());
+      if (lo[i] - p > r || hi[i] - p < -r) return false;
     }
-  return true;
-}
+    return true;
+  }
+};
 
 }  // namespace
 
@@ -472,6 +481,7 @@ void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, cons
                                     std::vector<Face>& out) const {
   if (hot_.empty()) return;
   const Vector3d tri[3] = {p0, p1, p2};
+  const TriangleSat sat(tri);
   Box tb;
   for (const Vector3d& p : tri) tb.extend(p);
   std::array<std::int32_t, kStack> stack;
@@ -484,8 +494,9 @@ void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, cons
     const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + pad_;
     if (!(lo.array() <= hi.array()).all()) continue;  // empty leaf
     if ((lo.array() > tb.max.array()).any() || (hi.array() < tb.min.array()).any()) continue;
-    if (!triangleMeetsBox(tri, lo, hi)) continue;
-    if (h.child[0] < 0) {
+    const bool leaf = h.child[0] < 0;
+    if (!sat.meets(0.5 * (lo + hi), 0.5 * (hi - lo), leaf)) continue;
+    if (leaf) {
       const Node& n = nodes_[static_cast<std::size_t>(i)];
       for (std::int32_t k = 0; k < n.count; ++k) out.push_back(Face(n.faces[k]));
     } else {
