@@ -189,6 +189,44 @@ BenchResult benchScene(const Scene& s, Method method, double dt, double duration
   return r;
 }
 
+ActiveComparison compareActiveRegion(const Scene& sc, double dt, double duration) {
+  ActiveComparison out;
+  State full = sc.initial;
+  const auto v = topCentreVertex(full.mesh);
+  if (!v.isValid()) return out;
+  full.mesh.position(v).z() += 5.0;  // undo the scene's push: start settled
+  State act = full;
+  Params pf = sc.params;
+  pf.method = Method::SymplecticEuler;
+  Params pa = pf;
+  pa.active.enabled = true;
+  const auto n = static_cast<std::uint64_t>(std::lround(duration / dt));
+  double cpuFull = 0, cpuActive = 0, worked = 0, total = 0;
+  for (std::uint64_t k = 0; k < n; ++k) {
+    const Vec3 f = k < n / 2 ? Vec3(0, 0, -5.0) : Vec3::Zero();
+    full.mesh.getVertexProperty<Vec3>(kForceProp)[v] = f;
+    act.mesh.getVertexProperty<Vec3>(kForceProp)[v] = f;
+    std::clock_t c0 = std::clock();
+    step(pf, full, dt);
+    std::clock_t c1 = std::clock();
+    worked += static_cast<double>(step(pa, act, dt).activeVertices);
+    std::clock_t c2 = std::clock();
+    cpuFull += static_cast<double>(c1 - c0);
+    cpuActive += static_cast<double>(c2 - c1);
+    total += static_cast<double>(act.mesh.nVertices());
+    const auto& a = full.mesh.positions();
+    const auto& b = act.mesh.positions();
+    for (std::size_t i = 0; i < a.size(); ++i) out.maxDifference = std::max(out.maxDifference, (a[i] - b[i]).norm());
+  }
+  out.steps = n;
+  out.workFraction = total > 0 ? worked / total : 1.0;
+  if (n > 0) {
+    out.usPerStepFull = 1e6 * cpuFull / CLOCKS_PER_SEC / static_cast<double>(n);
+    out.usPerStepActive = 1e6 * cpuActive / CLOCKS_PER_SEC / static_cast<double>(n);
+  }
+  return out;
+}
+
 namespace {
 
 bool stableAt(const Scene& s, Method method, double dt, int steps) {

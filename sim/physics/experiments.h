@@ -62,6 +62,18 @@ void compareTrajectories(const Trajectory& run, const Trajectory& ref, BenchResu
 // `sim bench`: one run against a reference of the same scene (RK4 at dt/64).
 BenchResult benchScene(const Scene& s, Method method, double dt, double duration, bool monitor = false);
 
+// Active-region mode against the full solve on the same interaction: from the settled
+// scene, a 5 mN push on the top-centre vertex for the first half of `duration`, then
+// release. Reports the fraction of vertex-steps integrated, the largest position
+// difference from the full solve at any step, and both step costs (CPU time).
+struct ActiveComparison {
+  double workFraction = 1.0;
+  double maxDifference = 0.0;  // [mm]
+  double usPerStepFull = 0.0, usPerStepActive = 0.0;
+  std::uint64_t steps = 0;
+};
+ActiveComparison compareActiveRegion(const Scene& s, double dt, double duration);
+
 // Largest dt (searched on a log scale in [lo, hi]) for which `steps` raw steps of
 // method keep the scene finite and its energy within 1.5× the start energy.
 // Returns hi when even hi is stable (check with `capped`).

@@ -68,6 +68,17 @@ TEST_F(SimCli, PatchReleaseAndSliver) {
   EXPECT_GT(m["stability_warnings"].get<int>(), 0);
 }
 
+TEST_F(SimCli, ActiveRegionComparison) {
+  const auto j = benchJson("--scene patch-release --method symplectic_euler --dt 0.001 --duration 0.05 --active on");
+  ASSERT_TRUE(j.contains("active"));
+  const auto& a = j["active"];
+  EXPECT_GT(a["work_fraction"].get<double>(), 0.0);
+  EXPECT_LE(a["work_fraction"].get<double>(), 1.0);
+  EXPECT_GE(a["max_difference_mm"].get<double>(), 0.0);
+  EXPECT_LT(a["max_difference_mm"].get<double>(), 1.0);
+  EXPECT_EQ(a["steps"], 50);
+}
+
 TEST_F(SimCli, ModelFileScene) {
   const fs::path obj = dir_ / "box.obj";
   std::ofstream(obj) << "v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nv 0 0 10\nv 10 0 10\nv 10 10 10\nv 0 10 10\n"
