@@ -34,14 +34,32 @@ Pose interpolate(const Pose& a, const Pose& b, double u) {
 class Contacts {
  public:
   explicit Contacts(const mesh::SurfaceMesh& m) : m_(m), bvh_(m) {}
-  // Where the cutting edges first meet the surface (edges in tool order).
+  // Where the cutting edges meet the surface: of all hits, the one nearest the working
+  // point (the hook's elbow, the scalpel's tip), so that a hook lying flat on the
+  // tissue or dipping its tip does not make the contact point jump along the edge.
   std::optional<Hit> cuttingHit(Tool tool, const Pose& pose) {
+    std::optional<Hit> best;
+    double bestD = 0.0;
+    bool bestCoplanar = true;
+    bool first = true;
+    Eigen::Vector3d ref = pose.tip;
     for (const auto& s : instruments::segments(tool, pose)) {
       if (s.role != instruments::SegmentRole::CuttingEdge) continue;
+      if (first) ref = s.a;
+      first = false;
       bvh_.intersectSegment(m_, s.a, s.b, hits_);
-      if (!hits_.empty()) return Hit{hits_.front().point, hits_.front().face};
+      for (const auto& h : hits_) {
+        // A coplanar overlap only counts when nothing crosses: its point is ill-defined.
+        const bool coplanar = h.kind == collision::HitKind::Coplanar;
+        const double d = (h.point - ref).squaredNorm();
+        if (!best || (bestCoplanar && !coplanar) || (coplanar == bestCoplanar && d < bestD)) {
+          best = Hit{h.point, h.face};
+          bestD = d;
+          bestCoplanar = coplanar;
+        }
+      }
     }
-    return std::nullopt;
+    return best;
   }
 
  private:

@@ -1,6 +1,7 @@
 // lapdissect-cli task ...: tasks and curricula.
 //   task validate FILE
 //   task run --task JSON --trajectory CSV [--db URL --trainee NAME]   (password on stdin)
+//   task script --task JSON --level 0..3 [--seed N] [--rate HZ] --out CSV   (scripted trainee)
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include "curriculum/curriculum_error.h"
 #include "curriculum/curriculum_plan.h"
 #include "curriculum/json_check.h"
+#include "curriculum/scripted_trainee.h"
 #include "curriculum/task.h"
 #include "curriculum/task_runner.h"
 #include "curriculum/tissue_path.h"
@@ -208,13 +210,48 @@ int run(const Args& args) {
   return kOk;
 }
 
+// Writes a scripted trainee's trajectory (level 0 = expert, 1..3 = novices).
+int script(const Args& args) {
+  const std::string& taskFile = args.get("task");
+  Task task;
+  try {
+    task = loadTask(taskFile);
+  } catch (const FormatError& e) {
+    badInput(e.problems(), taskFile);
+  }
+  std::vector<std::string> problems;
+  bool found = false;
+  const mesh::SurfaceMesh m = loadModel(task, taskFile, problems, found);
+  if (!found) badInput(problems, taskFile);
+  const double level = args.getDouble("level", 0.0), seed = args.getDouble("seed", 1.0),
+               rate = args.getDouble("rate", 250.0);
+  if (level < 0 || level > 3 || level != std::floor(level))
+    throw CliError(kBadInput, "option --level: must be 0 (expert) to 3");
+  if (!(rate >= 1 && rate <= 100000)) throw CliError(kBadInput, "option --rate: must be 1 to 100000 Hz");
+  if (seed < 0 || seed > 4294967295.0 || seed != std::floor(seed))
+    throw CliError(kBadInput, "option --seed: must be a whole number");
+  const auto profile = traineeProfile(static_cast<int>(level), static_cast<unsigned>(seed));
+  const devices::Trajectory tr = scriptedAttempt(task, m, profile, rate);
+  const std::string& outFile = args.get("out");
+  std::ofstream out(outFile);
+  if (!out) throw CliError(kBadInput, outFile + ": cannot be written");
+  devices::writeTrajectoryCsv(tr, out);
+  if (!out) throw CliError(kInternal, outFile + ": write failed");
+  printJson({{"trajectory", outFile},
+             {"profile", profile.name},
+             {"samples", tr.samples.size()},
+             {"duration_s", tr.duration()}});
+  return kOk;
+}
+
 }  // namespace
 
 int runTask(const Args& args) {
-  const std::string& cmd = args.pos(0, "task command (validate, run)");
+  const std::string& cmd = args.pos(0, "task command (validate, run, script)");
   if (cmd == "validate") return validate(args.pos(1, "task or curriculum file"));
   if (cmd == "run") return run(args);
-  throw CliError(kBadInput, "unknown command 'task " + cmd + "' (validate, run)");
+  if (cmd == "script") return script(args);
+  throw CliError(kBadInput, "unknown command 'task " + cmd + "' (validate, run, script)");
 }
 
 }  // namespace ld::cli

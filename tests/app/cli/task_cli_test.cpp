@@ -1,0 +1,112 @@
+// lapdissect-cli task validate / run / script.
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/run_command.h"
+
+namespace {
+
+// (test_support.h needs Eigen, which the CLI tests do not link.)
+std::filesystem::path resourcesDir() {
+  if (const char* env = std::getenv("LD_RESOURCES")) return env;
+  return LD_RESOURCES_DIR;
+}
+
+namespace fs = std::filesystem;
+using ld::test::runCommand;
+using ld::test::shellQuote;
+
+std::string cli() { return shellQuote(LD_CLI); }
+fs::path tasks() { return resourcesDir() / "tasks"; }
+std::string temp(const std::string& name) {
+  return (fs::temp_directory_path() / ("ld_task_cli_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+TEST(TaskCli, ValidatesEveryBundledFile) {
+  for (const auto& e : fs::directory_iterator(tasks())) {
+    const auto r = runCommand(cli() + " task validate " + shellQuote(e.path().string()));
+    EXPECT_EQ(r.exitCode, 0) << e.path() << ": " << r.err;
+    EXPECT_TRUE(nlohmann::json::parse(r.out)["valid"].get<bool>());
+  }
+  const auto r =
+      runCommand(cli() + " task validate " + shellQuote((resourcesDir() / "curriculum" / "default.json").string()));
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kind"], "curriculum");
+  EXPECT_TRUE(j["tasks_checked"].get<bool>());
+}
+
+TEST(TaskCli, RefusesBadFilesWithReasons) {
+  auto j = nlohmann::json::parse(std::ifstream(tasks() / "slab-straight-line.json"));
+  j["scoring"]["time_limit_s"] = "long";
+  j["path"]["pieces"][0][3] = {0, 0, 40};  // far off the slab
+  const auto bad = temp("bad.json");
+  std::ofstream(bad) << j.dump();
+  auto r = runCommand(cli() + " task validate " + shellQuote(bad));
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find(bad + ": /scoring/time_limit_s: must be a number"), std::string::npos) << r.err;
+
+  j = nlohmann::json::parse(std::ifstream(tasks() / "slab-straight-line.json"));
+  j["path"]["pieces"][0][3] = {0, 0, 40};
+  j["model"]["file"] = (resourcesDir() / "models" / "tissue_slab.obj").string();
+  std::ofstream(bad) << j.dump();
+  r = runCommand(cli() + " task validate " + shellQuote(bad));
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find(bad + ": /path/pieces/0/3: 37.5 mm from the surface"), std::string::npos) << r.err;
+
+  std::ofstream(bad) << "{\"format\": \"lapdissect-task\",\n \"id\": }";
+  r = runCommand(cli() + " task validate " + shellQuote(bad));
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find(bad + ":2:"), std::string::npos) << r.err;
+  r = runCommand(cli() + " task validate /nonexistent/task.json");
+  EXPECT_EQ(r.exitCode, 2);
+  fs::remove(bad);
+}
+
+TEST(TaskCli, RunsAScriptedExpertAndNovice) {
+  const std::string task = shellQuote((tasks() / "slab-straight-line.json").string());
+  double scores[2] = {0, 0};
+  for (int level : {0, 2}) {
+    const auto traj = temp("traj" + std::to_string(level) + ".csv");
+    auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
+                        " --rate 200 --out " + shellQuote(traj));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    for (const char* k :
+         {"deviation", "contact_time", "contact_breaks", "path_breaks", "total_time_s", "score", "passed"})
+      ASSERT_TRUE(j.contains(k)) << k;
+    for (const char* k : {"xy", "yz", "xz", "total"}) ASSERT_TRUE(j["deviation"].contains(k)) << k;
+    for (const char* k : {"mean_s", "max_s", "total_s"}) ASSERT_TRUE(j["contact_time"].contains(k)) << k;
+    EXPECT_EQ(j["task"]["id"], "slab-straight-line");
+    EXPECT_EQ(j["task"]["version"], 1);
+    EXPECT_EQ(j["passed"].get<bool>(), level == 0) << r.out;
+    EXPECT_EQ(j["contact_breaks"].get<int>(), level);
+    scores[level / 2] = j["score"].get<double>();
+    if (level == 2) {
+      EXPECT_FALSE(j["reasons"]["failed"].empty());
+    }
+    fs::remove(traj);
+  }
+  EXPECT_GT(scores[0], scores[1]);
+}
+
+TEST(TaskCli, RunRefusesBadTrajectory) {
+  const auto traj = temp("bad.csv");
+  std::ofstream(traj) << "t,hand,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal\n"
+                         "0,right,hook,0,0,3,0,0,-1,1,0,0,0,1\n"
+                         "0.1,middle,hook,0,0,3,0,0,-1,1,0,0,0,1\n";
+  const auto r = runCommand(cli() + " task run --task " + shellQuote((tasks() / "slab-straight-line.json").string()) +
+                            " --trajectory " + shellQuote(traj));
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find(traj + ":3:"), std::string::npos) << r.err;
+  fs::remove(traj);
+}
+
+}  // namespace
