@@ -1,6 +1,7 @@
 // Processing of a triangle soup: welding, clean-up, orientation, statistics, and the
 // conversion into a SurfaceMesh.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -138,15 +139,26 @@ void cleanSoup(TriangleSoup& soup, bool weld, ImportReport* report) {
   const auto& tris = soup.triangles;
   const std::size_t nf = tris.size();
   const auto h = sortedHalfEdges(tris);
-  std::vector<std::vector<std::pair<std::uint32_t, bool>>> adj(nf);  // neighbour, must differ in flip
+  // At most one neighbour per edge; the flag says the two must end up flipped differently.
+  struct Neighbours {
+    std::array<std::uint32_t, 3> face{};
+    std::array<bool, 3> differ{};
+    std::uint8_t n = 0;
+    void add(std::uint32_t f, bool d) {
+      face[n] = f;
+      differ[n] = d;
+      ++n;
+    }
+  };
+  std::vector<Neighbours> adj(nf);
   std::vector<bool> allManifold(nf, true);
   for (std::size_t i = 0; i < h.size();) {
     std::size_t j = i;
     while (j < h.size() && h[j].key == h[i].key) ++j;
     if (j - i == 2 && h[i].face != h[i + 1].face) {
       const bool same = h[i].forward == h[i + 1].forward;
-      adj[h[i].face].push_back({h[i + 1].face, same});
-      adj[h[i + 1].face].push_back({h[i].face, same});
+      adj[h[i].face].add(h[i + 1].face, same);
+      adj[h[i + 1].face].add(h[i].face, same);
     } else {
       for (std::size_t k = i; k < j; ++k) allManifold[h[k].face] = false;
     }
@@ -166,8 +178,9 @@ void cleanSoup(TriangleSoup& soup, bool weld, ImportReport* report) {
       stack.pop_back();
       comp.push_back(f);
       closed = closed && allManifold[f];
-      for (auto [g, differ] : adj[f]) {
-        const int want = flip[f] ^ (differ ? 1 : 0);
+      for (std::uint8_t k = 0; k < adj[f].n; ++k) {
+        const std::uint32_t g = adj[f].face[k];
+        const int want = flip[f] ^ (adj[f].differ[k] ? 1 : 0);
         if (flip[g] < 0) {
           flip[g] = want;
           stack.push_back(g);

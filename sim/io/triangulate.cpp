@@ -3,6 +3,7 @@
 // new diagonal does not exist yet (see the teapot note in shared/data/SOURCES.md).
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <string>
 #include <unordered_set>
 
@@ -15,6 +16,23 @@ std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
   if (a > b) std::swap(a, b);
   return (static_cast<std::uint64_t>(a) << 32) | b;
 }
+
+// The file's edges (sorted once) plus the diagonals added so far.
+class EdgeSet {
+ public:
+  explicit EdgeSet(std::vector<std::uint64_t> fileEdges) : file_(std::move(fileEdges)) {
+    std::sort(file_.begin(), file_.end());
+    file_.erase(std::unique(file_.begin(), file_.end()), file_.end());
+  }
+  [[nodiscard]] bool contains(std::uint64_t k) const {
+    return std::binary_search(file_.begin(), file_.end(), k) || added_.count(k) > 0;
+  }
+  void insert(std::uint64_t k) { added_.insert(k); }
+
+ private:
+  std::vector<std::uint64_t> file_;
+  std::unordered_set<std::uint64_t> added_;
+};
 
 constexpr std::size_t kMaxEarClip = 256;  // larger polygons are fanned (cost is cubic)
 
@@ -31,11 +49,10 @@ double quality(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::
 
 class Triangulator {
  public:
-  Triangulator(const std::vector<Eigen::Vector3d>& pts, std::unordered_set<std::uint64_t>& edges,
-               std::vector<Triangle>& out)
+  Triangulator(const std::vector<Eigen::Vector3d>& pts, EdgeSet& edges, std::vector<Triangle>& out)
       : pts_(pts), edges_(edges), out_(out) {}
 
-  void run(const std::vector<std::uint32_t>& poly) {
+  void run(std::span<const std::uint32_t> poly) {
     const std::size_t n = poly.size();
     if (n == 3) {
       out_.push_back({poly[0], poly[1], poly[2]});
@@ -48,6 +65,10 @@ class Triangulator {
       const auto& b = pts_[poly[(i + 1) % n]];
       nrm += Eigen::Vector3d((a.y() - b.y()) * (a.z() + b.z()), (a.z() - b.z()) * (a.x() + b.x()),
                              (a.x() - b.x()) * (a.y() + b.y()));
+    }
+    if (n == 4 && nrm.norm() > 0) {
+      quad(poly, nrm);
+      return;
     }
     if (n > kMaxEarClip || !(nrm.norm() > 0)) {
       fan(poly);
@@ -72,7 +93,7 @@ class Triangulator {
       std::size_t best = 0;
       for (std::size_t i = 0; i < m; ++i) {
         const std::size_t a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
-        const bool fresh = poly[a] != poly[c] && !edges_.count(edgeKey(poly[a], poly[c]));
+        const bool fresh = poly[a] != poly[c] && !edges_.contains(edgeKey(poly[a], poly[c]));
         const bool ear = isEar(p2, ring, a, b, c);
         const int score = (fresh ? 2 : 0) + (ear ? 1 : 0);
         const double q = quality(pts_[poly[a]], pts_[poly[b]], pts_[poly[c]]);
@@ -103,13 +124,36 @@ class Triangulator {
     return true;
   }
 
+  // The common case without allocations: diagonal 0-2 or 1-3, preferring one that is
+  // new, then one whose triangles both face along the quad's normal, then shape.
+  void quad(std::span<const std::uint32_t> q, const Eigen::Vector3d& nrm) {
+    auto option = [&](std::size_t s, double& score) {
+      const std::uint32_t a = q[s], b = q[(s + 1) % 4], c = q[(s + 2) % 4], d = q[(s + 3) % 4];
+      const auto& pa = pts_[a];
+      const auto& pb = pts_[b];
+      const auto& pc = pts_[c];
+      const auto& pd = pts_[d];
+      const bool fresh = !edges_.contains(edgeKey(a, c));
+      const bool valid = (pb - pa).cross(pc - pa).dot(nrm) > 0 && (pc - pa).cross(pd - pa).dot(nrm) > 0;
+      score = (fresh ? 4.0 : 0.0) + (valid ? 2.0 : 0.0) + std::min(quality(pa, pb, pc), quality(pa, pc, pd));
+    };
+    double s0 = 0, s1 = 0;
+    option(0, s0);
+    option(1, s1);
+    const std::size_t s = s1 > s0 ? 1 : 0;
+    const std::uint32_t a = q[s], b = q[(s + 1) % 4], c = q[(s + 2) % 4], d = q[(s + 3) % 4];
+    out_.push_back({a, b, c});
+    out_.push_back({a, c, d});
+    edges_.insert(edgeKey(a, c));
+  }
+
   // Fan from the first corner whose diagonals are all new (corner 0 if none is).
-  void fan(const std::vector<std::uint32_t>& poly) {
+  void fan(std::span<const std::uint32_t> poly) {
     const std::size_t n = poly.size();
     std::size_t s = 0;
     for (std::size_t cand = 0; cand < n; ++cand) {
       bool ok = true;
-      for (std::size_t j = 2; j + 1 < n && ok; ++j) ok = !edges_.count(edgeKey(poly[cand], poly[(cand + j) % n]));
+      for (std::size_t j = 2; j + 1 < n && ok; ++j) ok = !edges_.contains(edgeKey(poly[cand], poly[(cand + j) % n]));
       if (ok) {
         s = cand;
         break;
@@ -123,7 +167,7 @@ class Triangulator {
   }
 
   const std::vector<Eigen::Vector3d>& pts_;
-  std::unordered_set<std::uint64_t>& edges_;
+  EdgeSet& edges_;
   std::vector<Triangle>& out_;
 };
 
@@ -134,27 +178,40 @@ TriangleSoup triangulate(const RawMesh& raw, ImportReport* report) {
   soup.points = raw.points;
   soup.source = raw.source;
   const std::size_t np = raw.polygonCount();
-  // Corners with consecutive repeats removed (they carry no area and no edge).
-  std::vector<std::vector<std::uint32_t>> polys(np);
-  std::unordered_set<std::uint64_t> edges;
-  std::size_t dropped = 0;
+  // Corners with consecutive repeats removed (they carry no area and no edge), flat.
+  std::vector<std::uint32_t> flat;
+  std::vector<std::size_t> begin{0};
+  flat.reserve(raw.indices.size());
+  begin.reserve(np + 1);
+  std::size_t dropped = 0, big = 0;
   long firstDroppedLine = 0;
   for (std::size_t i = 0; i < np; ++i) {
-    auto& p = polys[i];
+    const std::size_t b0 = flat.size();
     for (std::uint32_t k = raw.start[i]; k < raw.start[i + 1]; ++k)
-      if (p.empty() || p.back() != raw.indices[k]) p.push_back(raw.indices[k]);
-    while (p.size() > 1 && p.front() == p.back()) p.pop_back();
-    if (p.size() < 3) {
+      if (flat.size() == b0 || flat.back() != raw.indices[k]) flat.push_back(raw.indices[k]);
+    while (flat.size() - b0 > 1 && flat[b0] == flat.back()) flat.pop_back();
+    if (flat.size() - b0 < 3) {
       if (dropped++ == 0) firstDroppedLine = raw.line[i];
-      p.clear();
-      continue;
+      flat.resize(b0);
+    } else if (flat.size() - b0 > 3) {
+      ++big;
     }
-    for (std::size_t k = 0; k < p.size(); ++k) edges.insert(edgeKey(p[k], p[(k + 1) % p.size()]));
+    begin.push_back(flat.size());
   }
-  soup.triangles.reserve(raw.indices.size() / 3 + np);
+  // Only needed when some polygon has more than three corners.
+  std::vector<std::uint64_t> fileEdges;
+  if (big > 0) {
+    fileEdges.reserve(flat.size());
+    for (std::size_t i = 0; i + 1 < begin.size(); ++i)
+      for (std::size_t k = begin[i]; k < begin[i + 1]; ++k)
+        fileEdges.push_back(edgeKey(flat[k], flat[k + 1 < begin[i + 1] ? k + 1 : begin[i]]));
+  }
+  EdgeSet edges(std::move(fileEdges));
+  soup.triangles.reserve(flat.size());
   Triangulator tr(soup.points, edges, soup.triangles);
-  for (const auto& p : polys)
-    if (!p.empty()) tr.run(p);
+  for (std::size_t i = 0; i + 1 < begin.size(); ++i)
+    if (begin[i + 1] > begin[i])
+      tr.run(std::span<const std::uint32_t>(flat.data() + begin[i], begin[i + 1] - begin[i]));
   if (report) {
     report->droppedPolygons += dropped;
     if (dropped > 0)
