@@ -39,6 +39,16 @@ TEST(Triangulate, QuadAvoidsDiagonalThatIsAlreadyAnEdge) {
   EXPECT_EQ(computeStats(t).nonManifoldEdges, 0u);
 }
 
+TEST(Triangulate, NonConvexQuadUsesTheInsideDiagonal) {
+  // A dart: corner 2 points inward, so only diagonal 0-2 keeps both triangles inside.
+  const std::vector<Eigen::Vector3d> pts = {{0, 0, 0}, {2, -1, 0}, {0.5, 0, 0}, {2, 1, 0}};
+  const auto s = triangulate(rawOf(pts, {{0, 1, 2, 3}}));
+  ASSERT_EQ(s.triangles.size(), 2u);
+  EXPECT_TRUE(hasEdge(s, 0, 2));
+  for (const auto& t : s.triangles) EXPECT_GT(test::faceNormal(s, t).z(), 0);
+  EXPECT_TRUE(ld::test::near(computeStats(s).area, 0.5, 1e-12));  // shoelace
+}
+
 TEST(Triangulate, PentagonDiagonalsAvoidExistingEdges) {
   // Every fan from corner 0 would reuse 0-2 or 0-3, which other faces own.
   const std::vector<Eigen::Vector3d> pts = {{0, 0, 0}, {2, 0, 0}, {3, 1, 0}, {1, 2, 0}, {-1, 1, 0}, {1, 1, 3}};
