@@ -28,8 +28,8 @@ void settleAndPush(Scene& s) {
   so.speedTolerance = 1e-3;
   so.maxTime = 10.0;
   settle(settleParams, s.initial, so);
-  const auto v = topCentreVertex(s.initial.mesh);
-  if (v.isValid()) s.initial.mesh.position(v).z() -= 5.0;
+  s.pushed = topCentreVertex(s.initial.mesh);
+  if (s.pushed.isValid()) s.initial.mesh.position(s.pushed).z() -= 5.0;
   s.initial.stability = {};
   s.initial.time = 0;
   s.initial.steps = 0;
@@ -192,7 +192,7 @@ BenchResult benchScene(const Scene& s, Method method, double dt, double duration
 ActiveComparison compareActiveRegion(const Scene& sc, double dt, double duration) {
   ActiveComparison out;
   State full = sc.initial;
-  const auto v = topCentreVertex(full.mesh);
+  const auto v = sc.pushed;
   if (!v.isValid()) return out;
   full.mesh.position(v).z() += 5.0;  // undo the scene's push: start settled
   State act = full;

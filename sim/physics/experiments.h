@@ -20,6 +20,7 @@ struct Scene {
   State initial;
   bool analytic = false;
   double omega = 0.0, damping = 0.0, x0 = 0.0;  // analytic scenes only
+  mesh::Vertex pushed;                          // the vertex pushed 5 mm down (mesh scenes)
 };
 
 // Built-in scenes: "oscillator", "patch-release" (the default 80×60×5 mm slab, top
