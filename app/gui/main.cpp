@@ -182,6 +182,7 @@ int main(int argc, char** argv) {
       printError(QString::fromUtf8(e.what()));
       return kBadInput;
     }
+    if (parser.isSet(dbOpt)) window.openStore();  // a first start creates it; failures only show
     window.view()->setFixedSize(w, h);
     window.show();
     window.view()->fitToView();  // the view has its final size only now
@@ -274,6 +275,7 @@ int main(int argc, char** argv) {
 
   window.resize(1280, 860);
   window.show();
+  window.openStore();  // creates the store on a first start; a failure is only reported
   if (!model.isEmpty())
     window.loadModelInBackground(model);
   else

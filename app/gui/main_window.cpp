@@ -20,6 +20,9 @@
 
 #include "app/gui/mesh_view.h"
 #include "app/gui/resource_paths.h"
+#ifdef LD_GUI_HAVE_DB
+#include "app/gui/login_dialog.h"
+#endif
 #ifdef LD_GUI_HAVE_PHYSICS
 #include "app/gui/physics_session.h"
 #endif
@@ -234,6 +237,16 @@ void MainWindow::buildMenus() {
     tools->addWidget(cutDepth_);
   }
 
+  QMenu* trainee = menuBar()->addMenu(tr("&Trainee"));
+  QAction* login = trainee->addAction(tr("&Log in..."), this, &MainWindow::showLogin);
+  login->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_L));
+  trainee->addAction(tr("Log &out"), this, [this] {
+#ifdef LD_GUI_HAVE_DB
+    session_.reset();
+#endif
+    dbLabel_->setText(storeStatus());
+  });
+
   QMenu* help = menuBar()->addMenu(tr("&Help"));
   help->addAction(tr("&Mouse controls"), this, [this] {
     QMessageBox::information(
@@ -251,9 +264,56 @@ void MainWindow::buildMenus() {
 }
 
 void MainWindow::setDatabaseUrl(const QString& url) {
-  // The trainee store is opened by the login flow; until then the window only says
-  // which store it would use, so a first start without a database cannot fail.
-  dbLabel_->setText(url.isEmpty() ? tr("Store: default (not opened)") : tr("Store: %1 (not opened)").arg(url));
+  dbUrl_ = url;
+  dbLabel_->setText(storeStatus());
+}
+
+QString MainWindow::storeStatus() const {
+#ifdef LD_GUI_HAVE_DB
+  if (store_) {
+    const QString where = QString::fromStdString(store_->location());
+    return session_ ? tr("Store: %1, %2 (%3)")
+                          .arg(where, QString::fromStdString(session_->name()),
+                               QString::fromStdString(db::toString(session_->role())))
+                    : tr("Store: %1, not logged in").arg(where);
+  }
+#endif
+  if (!storeError_.isEmpty()) return tr("Store unavailable");
+  return dbUrl_.isEmpty() ? tr("Store: default (not opened)") : tr("Store: %1 (not opened)").arg(dbUrl_);
+}
+
+bool MainWindow::openStore() {
+#ifdef LD_GUI_HAVE_DB
+  if (store_) return true;
+  try {
+    store_ = db::Store::open(dbUrl_.isEmpty() ? db::Store::defaultUrl() : dbUrl_.toStdString());
+    storeError_.clear();
+  } catch (const std::exception& e) {
+    storeError_ = QString::fromUtf8(e.what());
+    statusBar()->showMessage(tr("Trainee store unavailable: %1").arg(storeError_), 15000);
+  }
+  dbLabel_->setText(storeStatus());
+  dbLabel_->setToolTip(storeError_);
+  return store_.has_value();
+#else
+  storeError_ = tr("this build has no trainee store (ld_database)");
+  dbLabel_->setText(storeStatus());
+  return false;
+#endif
+}
+
+void MainWindow::showLogin() {
+#ifdef LD_GUI_HAVE_DB
+  if (!openStore()) {
+    QMessageBox::warning(this, tr("Log in"), tr("The trainee store cannot be opened:\n%1").arg(storeError_));
+    return;
+  }
+  LoginDialog dialog(*store_, this);
+  if (dialog.exec() == QDialog::Accepted && dialog.session()) session_ = dialog.session();
+  dbLabel_->setText(storeStatus());
+#else
+  QMessageBox::information(this, tr("Log in"), tr("This build has no trainee store."));
+#endif
 }
 
 void MainWindow::updateCounts() {

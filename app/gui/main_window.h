@@ -9,6 +9,9 @@
 #include <thread>
 
 #include "app/gui/model_loader.h"
+#ifdef LD_GUI_HAVE_DB
+#include "database/store.h"
+#endif
 
 class QLabel;
 class QTimer;
@@ -36,7 +39,13 @@ class MainWindow : public QMainWindow {
   // Loads on a worker thread with a progress dialog; errors are shown in a message box.
   void loadModelInBackground(const QString& file);
   void showModel(LoadedModel model);
+  // The trainee store: `url` empty means the default file in the user's data folder.
+  // openStore() opens (creating and migrating on a first start); a failure is shown
+  // in the status bar and never stops the program. Returns whether a store is open.
   void setDatabaseUrl(const QString& url);
+  bool openStore();
+  void showLogin();
+  [[nodiscard]] QString storeStatus() const;
 
   // The tissue simulation (when the physics module is built): runs on models loaded
   // through the importers while enabled.
@@ -70,6 +79,12 @@ class MainWindow : public QMainWindow {
   std::thread loader_;
   unsigned loadId_ = 0;  // a newer load or a cancel makes older results stale
   QString currentFile_;
+  QString dbUrl_;
+  QString storeError_;
+#ifdef LD_GUI_HAVE_DB
+  std::optional<db::Store> store_;
+  std::optional<db::Session> session_;
+#endif
 
   std::unique_ptr<PhysicsSession> physics_;
   bool physicsEnabled_ = true;

@@ -7,13 +7,19 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <memory>
 
 #include "app/gui/main_window.h"
+#ifdef LD_GUI_HAVE_DB
+#include "app/gui/login_dialog.h"
+#endif
 #include "app/gui/mesh_view.h"
 #include "app/gui/physics_session.h"
 #include "tests/support/test_support.h"
@@ -115,5 +121,38 @@ TEST_F(GuiInteraction, BackgroundLoadShowsTheModelAndItsCounts) {
     if (l->text().contains("Vertices: 4842") && l->text().contains("Triangles: 9680")) countsShown = true;
   EXPECT_TRUE(countsShown);
 }
+
+#ifdef LD_GUI_HAVE_DB
+TEST(LoginDialog, FirstStartCreatesTheAdministratorThenLogsIn) {
+  if (!haveDisplay()) GTEST_SKIP() << "no X display (DISPLAY unset): run under xvfb-run";
+  static int argc = 1;
+  static char name[] = "ld_gui_interaction_test";
+  static char* argv[] = {name, nullptr};
+  if (!QApplication::instance()) new QApplication(argc, argv);
+  const auto file = std::filesystem::temp_directory_path() / ("ld_login_" + std::to_string(::getpid()) + ".sqlite");
+  std::filesystem::remove(file);
+  ld::db::Options cheap;  // fast password hashing for the test
+  cheap.opsLimit = 1;
+  cheap.memLimit = 8192;
+  {
+    auto store = ld::db::Store::open(file.string(), cheap);
+    ld::gui::LoginDialog first(store);
+    EXPECT_TRUE(first.createsFirstAdmin());
+    EXPECT_FALSE(first.tryLogin("admin", "correct-horse-1", "correct-horse-2"));
+    EXPECT_FALSE(first.error().isEmpty());
+    EXPECT_FALSE(first.tryLogin("", "correct-horse-1", "correct-horse-1"));
+    ASSERT_TRUE(first.tryLogin("admin", "correct-horse-1", "correct-horse-1")) << first.error().toStdString();
+    EXPECT_EQ(first.session()->role(), ld::db::Role::Admin);
+
+    ld::gui::LoginDialog again(store);
+    EXPECT_FALSE(again.createsFirstAdmin());
+    EXPECT_FALSE(again.tryLogin("admin", "wrong"));
+    EXPECT_FALSE(again.error().isEmpty()) << "a wrong password is reported";
+    EXPECT_TRUE(again.tryLogin("admin", "correct-horse-1")) << again.error().toStdString();
+    EXPECT_EQ(again.session()->name(), "admin");
+  }
+  std::filesystem::remove(file);
+}
+#endif
 
 }  // namespace

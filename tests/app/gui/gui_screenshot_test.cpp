@@ -221,9 +221,20 @@ TEST(GuiScreenshot, BadOptionsExitWithTwo) {
 TEST(GuiScreenshot, DatabaseUrlDoesNotStopAFirstStart) {
   LD_REQUIRE_DISPLAY();
   const auto dir = std::filesystem::temp_directory_path() / ("ld_nodb_" + std::to_string(::getpid()));
-  const Shot s = screenshot(ld::test::resourcesDir() / "models" / "disc.obj", "db",
-                            "--db " + shellQuote("sqlite:" + (dir / "store.sqlite").string()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "store.sqlite";
+  const Shot s =
+      screenshot(ld::test::resourcesDir() / "models" / "disc.obj", "db", "--db " + shellQuote(file.string()));
   expectShowsTissue(s, 0.95);
+#ifdef LD_GUI_HAVE_DB
+  EXPECT_TRUE(std::filesystem::exists(file)) << "the first start creates the trainee store";
+#endif
+  // A store that cannot be opened is reported, not fatal.
+  const Shot bad = screenshot(ld::test::resourcesDir() / "models" / "disc.obj", "baddb",
+                              "--db " + shellQuote((dir / "missing-folder" / "x" / "store.sqlite").string()));
+  expectShowsTissue(bad, 0.95);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
