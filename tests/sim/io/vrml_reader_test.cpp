@@ -303,9 +303,8 @@ TEST(VrmlReader, UseOfUndefinedNameWarns) {
 
 TEST(VrmlReader, InstancingBlowUpIsBounded) {
   // Each level uses the previous one twice: 2^40 instances must stop with an error.
-  std::string t =
-      "#VRML V2.0 utf8\nDEF L0 Shape { geometry IndexedFaceSet { coord Coordinate { point [0 0 0, 1 0 0, 0 1 "
-      "0] } coordIndex [0 1 2] } }\n";
+  // (An empty leaf keeps the test quick under the sanitizers; the limit counts visits.)
+  std::string t = "#VRML V2.0 utf8\nDEF L0 Group { }\n";
   for (int i = 1; i <= 40; ++i)
     t += "DEF L" + std::to_string(i) + " Group { children [ USE L" + std::to_string(i - 1) + " USE L" +
          std::to_string(i - 1) + " ] }\n";
