@@ -204,3 +204,41 @@ TEST(TriangleBvh, MisuseThrows) {
 
 }  // namespace
 }  // namespace ld::collision
+
+namespace ld::collision {
+namespace {
+
+// Cutting opens the mesh with separateEdge/splitVertex: faces move onto new
+// vertices without new face handles. The tree must follow.
+TEST(TriangleBvh, FollowsSeparatedEdgesAndSplitVertices) {
+  SurfaceMesh m = testing::grid(8);
+  TriangleBvh bvh(m);
+  // Separate the horizontal edges along y = 4 from the left boundary inwards.
+  int separated = 0;
+  for (int i = 0; i < 5; ++i) {
+    const mesh::Vertex p(static_cast<std::uint32_t>(4 * 9 + i)), q(static_cast<std::uint32_t>(4 * 9 + i + 1));
+    const mesh::Edge e = m.findEdge(p, q);
+    if (!e.isValid() || m.isBoundary(e)) continue;
+    separated += m.separateEdge(e).isValid() ? 1 : 0;
+  }
+  ASSERT_GT(separated, 2);
+  ASSERT_TRUE(m.validate().ok()) << m.validate().message();
+  // The new copies belong to the faces below the cut: pull them down so the cut opens.
+  const std::size_t before = 81;
+  std::vector<mesh::Vertex> moved;
+  for (std::size_t v = before; v < m.verticesSize(); ++v) {
+    m.position(mesh::Vertex(v)) += Vector3d(0, -0.3, -0.5);
+    moved.emplace_back(v);
+  }
+  EXPECT_NE(bvh.sync(m), SyncResult::Unchanged);
+  bvh.refitVertices(m, moved);
+  EXPECT_EQ(bvh.check(m), "");
+  SegmentSource src(21);
+  expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(400));
+  // A segment through the opened gap sees exactly what brute force sees.
+  const auto hits = bvh.intersectSegment(m, Vector3d(2.5, 3.9, 1), Vector3d(2.5, 3.9, -2));
+  EXPECT_TRUE(sameHits(hits, intersectSegment(m, Vector3d(2.5, 3.9, 1), Vector3d(2.5, 3.9, -2))));
+}
+
+}  // namespace
+}  // namespace ld::collision
