@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <functional>
 #include <iostream>
 #include <limits>
@@ -34,6 +35,20 @@ bool dbg() {
 constexpr const char* kApexProp = "v:cut_apex";
 
 int handIndex(Hand h) { return h == Hand::Left ? 0 : 1; }
+
+// Thread CPU time: remeshing figures must not count the time other processes take
+// the core away (the machine is shared).
+double cpuNow() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+struct CpuTimer {
+  double& acc;
+  double t0 = cpuNow();
+  ~CpuTimer() { acc += cpuNow() - t0; }
+};
 
 // One crossing of a cutting edge with a surface in the current sample.
 struct Hit {
@@ -815,8 +830,9 @@ struct CutEngine::Impl {
       return;
     }
     Vertex v;
-    if (!closedObject(tr.object) && tr.startMotion.norm() > 1e-9) {
-      // Sheet: a blade that came in over the rim starts the cut on the rim (cut-in).
+    if (tr.startMotion.norm() > 1e-9) {
+      // A blade that came in over the rim of a sheet or over an edge of the object
+      // starts the cut on that edge (cut-in), wherever the first sample caught it.
       const Vec3 n = sweepNormal(tr.start, tr.start + tr.startMotion, tr.startBlade, tr.startMotion);
       if (!n.isZero()) v = entryVertex(tr.object, f, tr.start, n, -tr.startMotion, true);
     }
@@ -891,6 +907,8 @@ struct CutEngine::Impl {
         walk(tr, g, n, (goalPoint - from).normalized(), (goalPoint - from).norm() + p.snapDistance, tr.tipDepth,
              tr.tipDepth);
         tr.hasPending = false;
+        // A cut from rim to rim may have freed a piece of the sheet.
+        if (tr.tip.isValid() && meshOf(tr.object).isBoundary(tr.tip)) checkSeparation.push_back(tr.object);
       }
     }
     if (tr.alive && tr.tip.isValid() && tr.hasPending) {
@@ -1056,7 +1074,11 @@ struct CutEngine::Impl {
     }
     if (bestE < 0) return boundaryOnly ? Vertex() : insertPoint(obj, f, P);
     const Edge e = fe[static_cast<std::size_t>(bestE)];
-    if (boundaryOnly && !m.isBoundary(e)) return Vertex();
+    if (boundaryOnly && !m.isBoundary(e)) {
+      // On a closed object: only a feature edge (faces meeting at more than 45°).
+      const Face g = m.otherFace(e, f);
+      if (!g.isValid() || rawNormal(m, f).normalized().dot(rawNormal(m, g).normalized()) > 0.7) return Vertex();
+    }
     const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
     const double L = m.edgeLength(e);
     const double tol = std::min(snapTolerance(L), 0.3 * L);
@@ -1177,6 +1199,7 @@ struct CutEngine::Impl {
   }
 
   void separate(int obj) {
+    CpuTimer timer{separationSeconds};
     const int idx = indexOf(obj);
     if (idx < 0) return;
     if (objects[static_cast<std::size_t>(idx)].mesh.connectedComponents().count <= 1) return;
@@ -1207,7 +1230,16 @@ struct CutEngine::Impl {
   }
 
   // ---- samples ------------------------------------------------------------------------------------
+  double collisionSeconds = 0.0;   // time in collision queries during the current call
+  double separationSeconds = 0.0;  // time splitting off freed pieces during the current call
+
   std::vector<Hit> hitsOf(const Vec3& a, const Vec3& b, int segment) {
+    const auto t0 = std::chrono::steady_clock::now();
+    struct Timer {
+      double& acc;
+      std::chrono::steady_clock::time_point t0;
+      ~Timer() { acc += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+    } timer{collisionSeconds, t0};
     std::vector<Hit> out;
     for (const auto& o : objects) {
       const auto hits = collision::intersectSegment(o.mesh, a, b);
@@ -1328,7 +1360,10 @@ struct CutEngine::Impl {
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
-      advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));
+      {
+        CpuTimer timer{stats.remeshSeconds};
+        advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));
+      }
       debugScan("advance");
     }
     // Tracks that lost the blade.
@@ -1339,12 +1374,18 @@ struct CutEngine::Impl {
       if (P) {
         std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
         if (pi < nTracks && matchOf[pi] < 0) {
-          cutOut(t, *P, motionOf(t.segment));
+          {
+            CpuTimer timer{stats.remeshSeconds};
+            cutOut(t, *P, motionOf(t.segment));
+          }
           debugScan("cutOut");
           continue;
         }
       }
-      terminate(t, motionOf(t.segment), bladeOf(t.segment));
+      {
+        CpuTimer timer{stats.remeshSeconds};
+        terminate(t, motionOf(t.segment), bladeOf(t.segment));
+      }
       debugScan("terminate");
     }
     // New crossings start cuts: two with material between them on a closed object
@@ -1357,7 +1398,10 @@ struct CutEngine::Impl {
           hits[j].dir < 0 && closedObject(h.object)) {
         hits[i].used = hits[j].used = true;
         // Upper layer (h0) is the one nearer the edge's far end b.
-        startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up);
+        {
+          CpuTimer timer{stats.remeshSeconds};
+          startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up);
+        }
         debugScan("startPair");
         continue;
       }
@@ -1372,7 +1416,10 @@ struct CutEngine::Impl {
     checkSeparation.clear();
     std::sort(objs.begin(), objs.end());
     objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
-    fixPinches();
+    {
+      CpuTimer timer{stats.remeshSeconds};
+      fixPinches();
+    }
     debugScan("safety net");
     for (int o : objs) separate(o);
     debugScan("separate");
@@ -1422,16 +1469,16 @@ struct CutEngine::Impl {
     res = &r;
     const Counts before = counts();
     const std::uint64_t v0 = versionSum();
-    const auto t0 = std::chrono::steady_clock::now();
+    collisionSeconds = 0.0;
+    separationSeconds = 0.0;
     body();
-    const auto t1 = std::chrono::steady_clock::now();
     const Counts after = counts();
     r.trianglesAdded = after.faces - before.faces;
     r.verticesAdded = after.vertices - before.vertices;
     r.topologyChanged = versionSum() != v0;
     stats.trianglesAdded += r.trianglesAdded;
     stats.verticesAdded += r.verticesAdded;
-    if (r.topologyChanged) stats.remeshSeconds += std::chrono::duration<double>(t1 - t0).count();
+    stats.separationSeconds += separationSeconds;
     res = nullptr;
     return r;
   }
@@ -1505,6 +1552,7 @@ StepResult CutEngine::endStroke(Hand hand) {
   Impl& I = *impl_;
   HandState& hs = I.hands[handIndex(hand)];
   return I.run([&] {
+    CpuTimer timer{I.stats.remeshSeconds};
     for (auto& t : hs.tracks) I.terminate(t);
     hs.tracks.clear();
     hs.hasPrev = false;

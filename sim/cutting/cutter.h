@@ -109,10 +109,11 @@ struct CutStats {
   long verticesAdded = 0;
   long tracks = 0;
   long separations = 0;
-  long walkFailures = 0;       // a track could not follow the blade and was ended
-  long fillFailures = 0;       // an opening could not be closed (should stay 0)
-  long unpinched = 0;          // pinched vertices split (safety net)
-  double remeshSeconds = 0.0;  // time in topology edits (walks, splits, walls, separation)
+  long walkFailures = 0;           // a track could not follow the blade and was ended
+  long fillFailures = 0;           // an opening could not be closed (should stay 0)
+  long unpinched = 0;              // pinched vertices split (safety net)
+  double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
+  double separationSeconds = 0.0;  // time splitting freed pieces into objects (O(mesh size), rare)
   [[nodiscard]] double remeshMicrosPerCutTriangle() const {
     return trianglesCut > 0 ? remeshSeconds * 1e6 / static_cast<double>(trianglesCut) : 0.0;
   }

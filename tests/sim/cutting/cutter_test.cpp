@@ -10,49 +10,307 @@ namespace ld::cutting {
 namespace {
 using test::Vec3;
 
+// Valid, manifold, finite (and closed when asked) after every call.
 void expectSound(const CutEngine& e, bool closed) {
   for (const auto& o : e.objects()) {
     const auto rep = o.mesh.validate();
-    int shown = 0;
-    for (auto f : o.mesh.faces())
-      if (o.mesh.faceArea(f) < 1e-12 && shown++ < 4) {
-        std::cerr << "degenerate " << f << " kind " << o.mesh.getFaceProperty<int>(kFaceKindProp)[f] << ":";
-        for (auto v : o.mesh.vertices(f)) std::cerr << " " << v << "(" << o.mesh.position(v).transpose() << ")";
-        std::cerr << "\n";
-      }
     ASSERT_TRUE(rep.ok()) << "object " << o.id << ": " << rep.message();
     const auto q = measureQuality(o.mesh);
     EXPECT_TRUE(q.manifoldVertices) << "object " << o.id;
     EXPECT_TRUE(q.finite);
+    EXPECT_EQ(q.components, 1) << "object " << o.id << " should hold one piece";
     if (closed) {
       EXPECT_TRUE(q.closed) << "object " << o.id;
     }
   }
 }
 
-TEST(Explore, SlabThrough) {
+auto soundEveryStep(bool closed) {
+  return [closed](CutEngine& e) { expectSound(e, closed); };
+}
+
+int facesOfKind(const mesh::SurfaceMesh& m, int kind) {
+  auto prop = m.getFaceProperty<int>(kFaceKindProp);
+  int n = 0;
+  for (auto f : m.faces()) n += prop[f] == kind ? 1 : 0;
+  return n;
+}
+
+mesh::SurfaceMesh slab() { return test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}); }
+constexpr double kSlabArea = 2 * 100 + 4 * 20;
+
+TEST(Cutter, StraightCutThroughSlabGivesTwoClosedPiecesWithSideWalls) {
   CutEngine e;
-  e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}));
-  test::stroke(e, Vec3(-1, 5.3, -1), Vec3(11, 5.3, -1), Vec3(0, 0, -1));
-  expectSound(e, true);
-  std::cerr << "objects " << e.objects().size() << " cut " << e.stats().trianglesCut << " added "
-            << e.stats().trianglesAdded << " fillfail " << e.stats().fillFailures << " walkfail "
-            << e.stats().walkFailures << " unpinch " << e.stats().unpinched << "\n";
+  e.addObject(slab());
+  test::stroke(e, Vec3(-1, 5.3, -1), Vec3(11, 5.3, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  ASSERT_EQ(e.objects().size(), 2u);
+  double area = 0.0;
   for (const auto& o : e.objects()) {
-    auto q = measureQuality(o.mesh);
-    std::cerr << " obj " << o.id << " faces " << o.mesh.nFaces() << " comps " << q.components << " closed " << q.closed
-              << " area " << o.mesh.area() << " minArea " << q.minArea << " minAng " << q.minAngleDeg << "\n";
+    area += o.mesh.area();
+    EXPECT_TRUE(o.mesh.isClosed());
+    EXPECT_GT(facesOfKind(o.mesh, kSideWall), 0);
+  }
+  // Original surface plus two side walls of 10 x 2.
+  EXPECT_TRUE(ld::test::near(area, kSlabArea + 2 * 20.0, 1e-9));
+  // The piece at y > 5.3 is 10 x 4.7 x 2; the other 10 x 5.3 x 2.
+  const double a0 = e.objects()[0].mesh.area(), a1 = e.objects()[1].mesh.area();
+  const double big = 2 * 53 + 2 * 10.6 + 2 * 20, small = 2 * 47 + 2 * 9.4 + 2 * 20;
+  EXPECT_TRUE(ld::test::near(std::max(a0, a1), big, 1e-9));
+  EXPECT_TRUE(ld::test::near(std::min(a0, a1), small, 1e-9));
+  EXPECT_EQ(e.stats().separations, 1);
+  EXPECT_EQ(e.stats().fillFailures, 0);
+  EXPECT_LE(static_cast<double>(e.stats().trianglesAdded) / static_cast<double>(e.stats().trianglesCut), 4.5);
+}
+
+TEST(Cutter, ShallowStrokeMakesAGrooveAtTheTipDepth) {
+  CutEngine e;
+  e.addObject(slab());
+  test::stroke(e, Vec3(2, 5.3, 1.0), Vec3(8, 5.3, 1.0), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  ASSERT_EQ(e.objects().size(), 1u);
+  const auto& m = e.objects()[0].mesh;
+  EXPECT_GT(facesOfKind(m, kGrooveWall), 0);
+  EXPECT_EQ(facesOfKind(m, kSideWall), 0);
+  EXPECT_GT(m.area(), kSlabArea + 2 * 5.0);  // two walls about 6 x 1 (less at the ends)
+  // Groove bottom vertices inside the slab at the tip's depth.
+  int bottom = 0;
+  for (auto v : m.vertices()) {
+    const Vec3 p = m.position(v);
+    if (p.z() > 0.01 && p.z() < 1.99 && p.x() > 0.01 && p.x() < 9.99 && p.y() > 0.01 && p.y() < 9.99) {
+      EXPECT_TRUE(ld::test::near(p.z(), 1.0, 1e-9));
+      EXPECT_TRUE(ld::test::near(p.y(), 5.3, 1e-9));
+      ++bottom;
+    }
+  }
+  EXPECT_GE(bottom, 2);
+}
+
+TEST(Cutter, EnteringAndLeavingThroughTheSameSideCutsANotch) {
+  CutEngine e;
+  e.addObject(slab());
+  const Vec3 dir(0, 0, -1);
+  std::vector<Vec3> pts{Vec3(-1, 3.3, -1), Vec3(4.3, 3.3, -1), Vec3(4.3, 6.7, -1), Vec3(-1, 6.7, -1)};
+  for (std::size_t k = 0; k + 1 < pts.size(); ++k) {
+    const Vec3 a = pts[k], b = pts[k + 1];
+    const int n = static_cast<int>((b - a).norm() / 0.02);
+    for (int i = (k == 0 ? 0 : 1); i <= n; ++i) {
+      auto pose = test::scalpel(a + (b - a) * (static_cast<double>(i) / n), dir, (b - a).normalized());
+      e.step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
+      expectSound(e, true);
+    }
+  }
+  e.endStroke(instruments::Hand::Right);
+  expectSound(e, true);
+  ASSERT_EQ(e.objects().size(), 2u);
+  const auto& piece = e.objects()[0].mesh.area() < e.objects()[1].mesh.area() ? e.objects()[0] : e.objects()[1];
+  // The notch piece: about 4.3 x 3.4 x 2 (inside a triangle the cut goes straight, so
+  // the corners are cut off a little).
+  EXPECT_TRUE(ld::test::near(piece.mesh.area(), 2 * 4.3 * 3.4 + 2 * 4.3 * 2 + 2 * 3.4 * 2, 0.0, 0.05));
+  const auto b = piece.mesh.bounds();
+  EXPECT_TRUE(ld::test::nearVec(b.min, Vec3(0, 3.3, 0), 1e-9));
+  EXPECT_TRUE(ld::test::nearVec(b.max, Vec3(4.3, 6.7, 2), 1e-9));
+}
+
+TEST(Cutter, TwoCutsThroughASlabFreeTheChunkBetweenThem) {
+  CutEngine e;
+  e.addObject(slab());
+  test::stroke(e, Vec3(-1, 3.3, -1), Vec3(11, 3.3, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  test::stroke(e, Vec3(-1, 6.7, -1), Vec3(11, 6.7, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  ASSERT_EQ(e.objects().size(), 3u);
+  double total = 0.0;
+  for (const auto& o : e.objects()) total += o.mesh.area();
+  EXPECT_TRUE(ld::test::near(total, kSlabArea + 4 * 20.0, 1e-9));
+  // The middle chunk (10 x 3.4 x 2) is a separated object of its own.
+  bool chunk = false;
+  for (const auto& o : e.objects()) {
+    const auto b = o.mesh.bounds();
+    if (ld::test::near(b.min.y(), 3.3, 1e-9) && ld::test::near(b.max.y(), 6.7, 1e-9)) chunk = true;
+  }
+  EXPECT_TRUE(chunk);
+}
+
+TEST(Cutter, SeparatedPieceCanBeCutAgain) {
+  CutEngine e;
+  e.addObject(slab());
+  test::stroke(e, Vec3(-1, 5.3, -1), Vec3(11, 5.3, -1), Vec3(0, 0, -1));
+  ASSERT_EQ(e.objects().size(), 2u);
+  test::stroke(e, Vec3(5.2, -1, -1), Vec3(5.2, 11, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  EXPECT_EQ(e.objects().size(), 4u);
+}
+
+// The swept test: the topology does not depend on the sampling rate.
+struct Topology {
+  std::vector<std::pair<std::size_t, std::size_t>> pieces;  // (vertices, faces) per object
+  bool operator==(const Topology&) const = default;
+};
+Topology topologyOf(const CutEngine& e) {
+  Topology t;
+  for (const auto& o : e.objects()) t.pieces.emplace_back(o.mesh.nVertices(), o.mesh.nFaces());
+  std::sort(t.pieces.begin(), t.pieces.end());
+  return t;
+}
+
+TEST(Cutter, SameStrokeAt100HzAnd1kHzGivesTheSameTopology) {
+  for (double depth : {-1.0, 1.0}) {
+    Topology t[2];
+    int k = 0;
+    for (double hz : {100.0, 1000.0}) {
+      CutEngine e;
+      e.addObject(slab());
+      const Vec3 dir = depth < 0 ? Vec3(0.1, 0, -1) : Vec3(0, 0, -1);
+      // The groove ends inside the slab; the cut-through leaves it.
+      const Vec3 end = depth < 0 ? Vec3(11, 7.9, depth) : Vec3(8.55, 7.37, depth);
+      test::stroke(e, Vec3(-1, 5.3, depth), end, dir, 40.0, hz, soundEveryStep(true));
+      t[k++] = topologyOf(e);
+    }
+    EXPECT_TRUE(t[0] == t[1]) << "depth " << depth << ": " << t[0].pieces.size() << " vs " << t[1].pieces.size()
+                              << " pieces, first " << t[0].pieces[0].first << "/" << t[0].pieces[0].second << " vs "
+                              << t[1].pieces[0].first << "/" << t[1].pieces[0].second;
+    EXPECT_FALSE(t[0].pieces.empty());
   }
 }
 
-TEST(Explore, SlabGroove) {
+TEST(Cutter, FastStrokeIsSubsampledAndStillCutsThrough) {
   CutEngine e;
-  e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}));
-  test::stroke(e, Vec3(2, 5.3, 1), Vec3(8, 5.3, 1), Vec3(0, 0, -1));
+  e.addObject(slab());
+  // 12 mm in 3 samples: the swept test fills in what the samples jump over.
+  test::stroke(e, Vec3(-1, 5.3, -1), Vec3(11, 5.3, -1), Vec3(0, 0, -1), 4000.0, 1000.0, soundEveryStep(true));
+  EXPECT_EQ(e.objects().size(), 2u);
+}
+
+// ---- progressive states on a sheet (open mesh: the cut opens without walls) ------------
+// Square sheet of two triangles split along (0,0)-(1,1).
+mesh::SurfaceMesh twoTriangles() {
+  mesh::SurfaceMesh m;
+  auto a = m.addVertex(Vec3(0, 0, 0)), b = m.addVertex(Vec3(1, 0, 0)), c = m.addVertex(Vec3(1, 1, 0)),
+       d = m.addVertex(Vec3(0, 1, 0));
+  m.addFace(a, b, c);
+  m.addFace(a, c, d);
+  return m;
+}
+
+void cutSheet(CutEngine& e, const Vec3& a, const Vec3& b) {
+  // Blade through the sheet (tip below).
+  test::stroke(e, a + Vec3(0, 0, -0.5), b + Vec3(0, 0, -0.5), Vec3(0, 0, -1), 2.0, 1000.0, soundEveryStep(false));
+}
+
+TEST(CutterTemplates, StartAndEndInsideOneTriangle) {
+  CutEngine e;
+  e.addObject(twoTriangles());
+  cutSheet(e, Vec3(0.6, 0.2, 0), Vec3(0.8, 0.35, 0));
+  const auto& m = e.objects()[0].mesh;
+  // Start and end become vertices (split face, then the end in one of its parts): 2 + 4.
+  EXPECT_EQ(m.nFaces(), 6u);
+  EXPECT_EQ(m.nVertices(), 6u);
+  EXPECT_EQ(m.boundaryLoops().size(), 1u);  // a one-edge slit stays closed
+}
+
+TEST(CutterTemplates, StartInsideExitThroughEdgeEndInside) {
+  // Start state exits by an edge (SE), termination state entered by an edge (TE).
+  CutEngine e;
+  e.addObject(twoTriangles());
+  cutSheet(e, Vec3(0.7, 0.2, 0), Vec3(0.3, 0.8, 0));
+  const auto& m = e.objects()[0].mesh;
+  // start (+2 faces), diagonal crossing (+2), end (+2); the crossing opens into two.
+  EXPECT_EQ(m.nFaces(), 8u);
+  EXPECT_EQ(m.nVertices(), 4u + 3u + 1u);
+  EXPECT_EQ(m.boundaryLoops().size(), 2u);  // the rim and the opened slit
+}
+
+TEST(CutterTemplates, PassingThroughAVertexReusesIt) {
+  // Exit by a vertex (SV), enter by a vertex (TV): no vertex is made next to (0.5,0.5).
+  CutEngine e;
+  e.addObject(test::makeSheetDisc(1.0, 4, 1));  // centre vertex at the origin
+  const std::size_t v0 = e.objects()[0].mesh.nVertices();
+  cutSheet(e, Vec3(-0.3, 0.001, 0), Vec3(0.3, -0.001, 0));
+  const auto& m = e.objects()[0].mesh;
+  // start + end + the centre opened into two copies (+1); nothing else.
+  EXPECT_EQ(m.nVertices(), v0 + 3u);
+  for (auto v : m.vertices()) {
+    if (m.position(v).norm() < 0.05) {
+      EXPECT_LT(m.position(v).norm(), 1e-12);
+    }
+  }
+}
+
+TEST(CutterTemplates, MidwayTrianglesCrossedEdgeToEdge) {
+  // Midway state in by an edge and out by an edge (MEE): every crossed edge gets one
+  // vertex, every crossed triangle ends as three.
+  CutEngine e;
+  e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(4, 4, 1), {4, 4, 1}));
+  const std::size_t f0 = e.objects()[0].mesh.nFaces();
+  test::stroke(e, Vec3(0.5, 2.3, 0.5), Vec3(3.5, 2.3, 0.5), Vec3(0, 0, -1));
   expectSound(e, true);
-  std::cerr << "objects " << e.objects().size() << " cut " << e.stats().trianglesCut << " added "
-            << e.stats().trianglesAdded << " fillfail " << e.stats().fillFailures << " walkfail "
-            << e.stats().walkFailures << " unpinch " << e.stats().unpinched << "\n";
+  EXPECT_GT(e.objects()[0].mesh.nFaces(), f0 + 2 * static_cast<std::size_t>(e.stats().trianglesCut) - 4);
+  EXPECT_EQ(e.stats().walkFailures, 0);
+}
+
+TEST(CutterTemplates, SheetCutAcrossFromRimToRimSeparates) {
+  // Cut-in and cut-out at the boundary of a sheet.
+  CutEngine e;
+  e.addObject(test::makeSheetDisc(5.0, 12, 4));
+  cutSheet(e, Vec3(-6, 0.37, 0), Vec3(6, 0.37, 0));
+  EXPECT_EQ(e.objects().size(), 2u);
+  expectSound(e, false);
+}
+
+TEST(Cutter, ReportsContactsCutPointsAndPreview) {
+  CutEngine e;
+  e.addObject(slab());
+  auto pose = test::scalpel(Vec3(5, 5.3, 1), Vec3(0, 0, -1), Vec3(1, 0, 0));
+  auto r = e.step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
+  ASSERT_EQ(r.contacts.size(), 1u);
+  EXPECT_TRUE(ld::test::nearVec(r.contacts[0].point, Vec3(5, 5.3, 2), 1e-12));
+  ASSERT_EQ(r.cutPoints.size(), 1u);
+  EXPECT_TRUE(ld::test::nearVec(r.cutPoints[0].depth, Vec3(5, 5.3, 1), 1e-12));
+  pose.tip.x() += 0.3;
+  r = e.step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
+  ASSERT_EQ(r.preview.size(), 1u);
+  EXPECT_TRUE(ld::test::nearVec(r.preview[0].to, Vec3(5.3, 5.3, 2), 1e-12));
+  // A grasper touches but never cuts.
+  CutEngine g;
+  g.addObject(slab());
+  instruments::Pose gp = test::scalpel(Vec3(5, 5, 1), Vec3(0, 0, -1), Vec3(1, 0, 0));
+  const auto f0 = g.objects()[0].mesh.nFaces();
+  for (int i = 0; i < 50; ++i) {
+    gp.tip.x() += 0.05;
+    auto gr = g.step(instruments::Hand::Left, instruments::Tool::Grasper, gp);
+    EXPECT_FALSE(gr.contacts.empty());
+  }
+  g.finish();
+  EXPECT_EQ(g.objects()[0].mesh.nFaces(), f0);
+}
+
+TEST(Cutter, HookCutsOnlyWithThePedalDown) {
+  CutEngine e;
+  e.addObject(slab());
+  const auto f0 = e.objects()[0].mesh.nFaces();
+  instruments::Pose p = test::scalpel(Vec3(3, 5.3, 1.0), Vec3(0, 0, -1), Vec3(-1, 0, 0));
+  for (int i = 0; i < 100; ++i) {
+    p.tip.x() += 0.04;
+    p.pedal = false;
+    e.step(instruments::Hand::Right, instruments::Tool::Hook, p);
+  }
+  e.finish();
+  EXPECT_EQ(e.objects()[0].mesh.nFaces(), f0);
+  for (int i = 0; i < 100; ++i) {
+    p.tip.x() += 0.04;
+    p.pedal = true;
+    e.step(instruments::Hand::Right, instruments::Tool::Hook, p);
+    expectSound(e, true);
+  }
+  e.finish();
+  EXPECT_GT(e.objects()[0].mesh.nFaces(), f0);
+}
+
+TEST(Cutter, RejectsBadInput) {
+  CutParams bad;
+  bad.snapDistance = -1.0;
+  EXPECT_THROW(CutEngine{bad}, CutError);
+  CutEngine e;
+  EXPECT_THROW((void)e.object(42), CutError);
+  instruments::Pose p;
+  p.tip = Vec3(std::nan(""), 0, 0);
+  EXPECT_THROW(e.step(instruments::Hand::Right, instruments::Tool::Scalpel, p), CutError);
 }
 
 }  // namespace
