@@ -109,4 +109,42 @@ TEST(TaskCli, RunRefusesBadTrajectory) {
   fs::remove(traj);
 }
 
+TEST(TaskCli, RunStoresTheAttemptInTheTraineeStore) {
+  const fs::path dir = temp("store");
+  fs::create_directories(dir);
+  const std::string url = shellQuote("sqlite://" + (dir / "store.db").string());
+  const std::string db = "LAPDISSECT_INSECURE_FAST_HASH=1 " + cli() + " db ";
+  auto r = runCommand(db + "init --admin boss --db " + url, "boss-password\n");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = runCommand(db + "user add --as boss --name kim --role resident --db " + url, "boss-password\nkim-password\n");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string task = shellQuote((tasks() / "slab-straight-line.json").string());
+  const auto traj = (dir / "t.csv").string();
+  r = runCommand(cli() + " task script --task " + task + " --level 0 --rate 100 --out " + shellQuote(traj));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string run = "LAPDISSECT_INSECURE_FAST_HASH=1 " + cli() + " task run --task " + task + " --trajectory " +
+                          shellQuote(traj) + " --db " + url + " --trainee kim";
+  r = runCommand(run, "kim-password\n");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("attempt_id"));
+  // The stored attempt keeps the task version and the metrics.
+  r = runCommand(db + "attempts --as kim --db " + url, "kim-password\n");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto list = nlohmann::json::parse(r.out);
+  const auto& attempts = list.is_array() ? list : list["attempts"];
+  ASSERT_EQ(attempts.size(), 1u) << r.out;
+  EXPECT_EQ(attempts[0]["task_id"], "slab-straight-line");
+  EXPECT_EQ(attempts[0]["task_version"], 1);
+  EXPECT_EQ(attempts[0]["passed"], j["passed"]);
+  EXPECT_EQ(attempts[0]["metrics"]["deviation"]["total"], j["deviation"]["total"]);
+  // A wrong password stores nothing.
+  r = runCommand(run, "wrong\n");
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_EQ(
+      runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --db " + url).exitCode,
+      2);  // --db without --trainee
+  fs::remove_all(dir);
+}
+
 }  // namespace
