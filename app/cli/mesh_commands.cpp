@@ -1,5 +1,6 @@
 // lapdissect-cli mesh info FILE | mesh convert IN OUT   (contract in DESIGN.md)
-// Both take `--weld on` to merge equal points in every format (STL always is).
+// Both take `--weld on` to merge equal points in every format (STL always is);
+// convert takes `--binary on` to write binary PLY.
 #include <cmath>
 #include <string>
 
@@ -62,7 +63,10 @@ int convert(const Args& args) {
     throw CliError(kBadInput, out + ": cannot export this format (use .obj, .ply or .wrl)");
   io::ImportReport rep;
   const mesh::SurfaceMesh m = io::readMesh(in, readOptions(args), &rep);
-  io::writeMesh(m, out);
+  const std::string binary = args.get("binary", "off");
+  if (binary != "on" && binary != "off")
+    throw CliError(kBadInput, "option --binary: expected 'on' or 'off', found '" + binary + "'");
+  io::writeMesh(m, out, io::WriteOptions{binary == "on"});
   nlohmann::json j;
   j["in"] = in;
   j["out"] = out;

@@ -41,7 +41,12 @@ mesh::SurfaceMesh readMesh(const std::filesystem::path& file, ImportReport* repo
 mesh::SurfaceMesh readMesh(const std::filesystem::path& file, const ReadOptions& options,
                            ImportReport* report = nullptr);
 
+struct WriteOptions {
+  bool binaryPly = false;  // .ply as binary_little_endian instead of ASCII
+};
+
 // Writes by extension (.obj, .ply, .wrl). Throws IoError on failure.
 void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file);
+void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file, const WriteOptions& options);
 
 }  // namespace ld::io

@@ -1,6 +1,7 @@
 // Export to OBJ, PLY (ASCII) and VRML 2.0. Numbers are written with the shortest
 // representation that reads back to the same double, so a round trip is exact.
 #include <charconv>
+#include <cstdint>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -90,6 +91,25 @@ std::string toPly(const Flat& f) {
   return s;
 }
 
+std::string toBinaryPly(const Flat& f) {
+  std::string s = "ply\nformat binary_little_endian 1.0\ncomment written by lapdissect\nelement vertex " +
+                  std::to_string(f.points.size()) + "\nproperty double x\nproperty double y\nproperty double z\n" +
+                  "element face " + std::to_string(f.faces.size()) +
+                  "\nproperty list uchar uint vertex_indices\nend_header\n";
+  s.reserve(s.size() + f.points.size() * 24 + f.faces.size() * 13);
+  auto put = [&s](const auto& v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); };  // little endian hosts
+  for (const auto& p : f.points) {
+    put(p.x());
+    put(p.y());
+    put(p.z());
+  }
+  for (const auto& t : f.faces) {
+    put(static_cast<std::uint8_t>(3));
+    for (std::size_t k : t) put(static_cast<std::uint32_t>(k));
+  }
+  return s;
+}
+
 std::string toVrml(const Flat& f) {
   std::string s =
       "#VRML V2.0 utf8\n# written by lapdissect\nShape {\n  geometry IndexedFaceSet {\n    solid FALSE\n"
@@ -119,12 +139,16 @@ std::string toVrml(const Flat& f) {
 
 }  // namespace
 
-void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file) {
+void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file) { writeMesh(m, file, WriteOptions{}); }
+
+void writeMesh(const mesh::SurfaceMesh& m, const std::filesystem::path& file, const WriteOptions& options) {
   const auto fmt = formatFromPath(file);
   if (!fmt || (*fmt != Format::Obj && *fmt != Format::Ply && *fmt != Format::Vrml))
     throw IoError(file.string() + ": cannot export '" + file.extension().string() + "' (use .obj, .ply or .wrl)");
   const Flat flat = flatten(m);
-  const std::string text = *fmt == Format::Obj ? toObj(flat) : *fmt == Format::Ply ? toPly(flat) : toVrml(flat);
+  const std::string text = *fmt == Format::Obj   ? toObj(flat)
+                           : *fmt == Format::Ply ? (options.binaryPly ? toBinaryPly(flat) : toPly(flat))
+                                                 : toVrml(flat);
   std::ofstream out(file, std::ios::binary | std::ios::trunc);
   if (!out) throw IoError(file.string() + ": cannot open for writing");
   out.write(text.data(), static_cast<std::streamsize>(text.size()));

@@ -178,6 +178,12 @@ TEST_F(MeshCli, ConvertRoundTripsThroughEveryExportFormat) {
     EXPECT_EQ(j["closed"], true);
     EXPECT_EQ(j["flipped_faces"], 0);  // written outward, read back unchanged
   }
+  const auto bin = dir_ / "teapot_bin.ply";
+  ASSERT_EQ(
+      cli("mesh convert " + shellQuote(teapot.string()) + " " + shellQuote(bin.string()) + " --binary on").exitCode, 0);
+  const auto jb = nlohmann::json::parse(cli("mesh info " + shellQuote(bin.string())).out);
+  EXPECT_EQ(jb["triangles"], 2378);
+  EXPECT_EQ(jb["genus"], 1);
   const auto stl = cli("mesh convert " + shellQuote(teapot.string()) + " " + shellQuote((dir_ / "t.stl").string()));
   EXPECT_EQ(stl.exitCode, 2);
   const auto nodir =

@@ -189,6 +189,15 @@ std::string extName(const ::testing::TestParamInfo<const char*>& p) { return std
 
 INSTANTIATE_TEST_SUITE_P(Io, RoundTrip, ::testing::Values(".obj", ".ply", ".wrl"), extName);
 
+TEST(WriteMesh, BinaryPlyRoundTrip) {
+  test::TempDir dir;
+  const auto m = openBox();
+  const auto file = dir.path() / "box.ply";
+  writeMesh(m, file, WriteOptions{true});
+  EXPECT_NE(readFileBytes(file).find("format binary_little_endian"), std::string::npos);
+  expectSameMesh(m, readMesh(file));
+}
+
 TEST(WriteMesh, SkipsDeletedElements) {
   auto m = openBox();
   m.deleteFace(mesh::Face(0));
