@@ -1,0 +1,133 @@
+// lapdissect-cli cut: the real binary on a small box and a trajectory written here.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/run_command.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using ld::test::runCommand;
+using ld::test::shellQuote;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    path = fs::temp_directory_path() / ("ld_cut_cli_" + std::to_string(::getpid()) + "_" + std::to_string(std::rand()));
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+// Closed box [0,10]x[0,10]x[0,2] as OBJ, one quad per unit cell on top and bottom.
+void writeBox(const fs::path& file) {
+  std::ofstream o(file);
+  int nx = 10, ny = 10;
+  auto id = [&](int i, int j, int k) { return 1 + k * (nx + 1) * (ny + 1) + j * (nx + 1) + i; };
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i) o << "v " << i << " " << j << " " << 2 * k << "\n";
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      o << "f " << id(i, j, 1) << " " << id(i + 1, j, 1) << " " << id(i + 1, j + 1, 1) << " " << id(i, j + 1, 1)
+        << "\n";
+      o << "f " << id(i, j, 0) << " " << id(i, j + 1, 0) << " " << id(i + 1, j + 1, 0) << " " << id(i + 1, j, 0)
+        << "\n";
+    }
+  for (int i = 0; i < nx; ++i) {
+    o << "f " << id(i, 0, 0) << " " << id(i + 1, 0, 0) << " " << id(i + 1, 0, 1) << " " << id(i, 0, 1) << "\n";
+    o << "f " << id(i, ny, 0) << " " << id(i, ny, 1) << " " << id(i + 1, ny, 1) << " " << id(i + 1, ny, 0) << "\n";
+  }
+  for (int j = 0; j < ny; ++j) {
+    o << "f " << id(0, j, 0) << " " << id(0, j, 1) << " " << id(0, j + 1, 1) << " " << id(0, j + 1, 0) << "\n";
+    o << "f " << id(nx, j, 0) << " " << id(nx, j + 1, 0) << " " << id(nx, j + 1, 1) << " " << id(nx, j, 1) << "\n";
+  }
+}
+
+// Scalpel, blade vertical, tip at height z, sliding along x from x0 to x1 at y.
+void writeStroke(const fs::path& file, double x0, double x1, double y, double z, int n) {
+  std::ofstream o(file);
+  o << "t,hand,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal\n";
+  for (int i = 0; i <= n; ++i)
+    o << i * 0.001 << ",right,scalpel," << x0 + (x1 - x0) * i / n << "," << y << "," << z << ",0,0,-1,1,0,0,0,0\n";
+}
+
+nlohmann::json run(const std::string& args, int expectCode = 0) {
+  const auto r = runCommand(std::string(LD_CLI) + " " + args);
+  EXPECT_EQ(r.exitCode, expectCode) << r.err;
+  if (expectCode != 0) return nlohmann::json{{"stderr", r.err}};
+  return nlohmann::json::parse(r.out);
+}
+
+TEST(CutCli, CutThroughWritesTwoClosedPieces) {
+  TempDir d;
+  writeBox(d.path / "box.obj");
+  writeStroke(d.path / "through.csv", -1, 11, 5.3, -1, 600);
+  const auto out = d.path / "pieces.obj";
+  const auto j = run("cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
+                     shellQuote((d.path / "through.csv").string()) + " --out " + shellQuote(out.string()));
+  for (const char* k : {"triangles_cut", "triangles_added", "vertices_added", "components", "manifold", "closed",
+                        "min_triangle_area", "remesh_us_per_cut_triangle", "nan"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["components"], 2);
+  EXPECT_EQ(j["manifold"], true);
+  EXPECT_EQ(j["closed"], true);
+  EXPECT_EQ(j["nan"], false);
+  EXPECT_GT(j["triangles_cut"].get<long>(), 10);
+  EXPECT_GT(j["triangles_added"].get<long>(), 0);
+  EXPECT_GT(j["min_triangle_area"].get<double>(), 0.0);
+  // `mesh info` checks the written pieces.
+  const auto info = run("mesh info " + shellQuote(out.string()));
+  EXPECT_EQ(info["components"], 2);
+  EXPECT_EQ(info["closed"], true);
+  EXPECT_EQ(info["manifold"], true);
+  EXPECT_NEAR(info["area"].get<double>(), 280.0 + 40.0, 1e-6);
+}
+
+TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
+  TempDir d;
+  writeBox(d.path / "box.obj");
+  writeStroke(d.path / "groove.csv", 2, 8, 5.3, 1.0, 300);
+  const std::string cmd = "cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
+                          shellQuote((d.path / "groove.csv").string()) + " --physics off";
+  const auto a = run(cmd), b = run(cmd);
+  EXPECT_EQ(a["components"], 1);
+  EXPECT_EQ(a["closed"], true);
+  EXPECT_EQ(a["triangles_added"], b["triangles_added"]);
+  EXPECT_EQ(a["vertices_added"], b["vertices_added"]);
+}
+
+TEST(CutCli, PhysicsOnRunsAndStaysFinite) {
+  TempDir d;
+  writeBox(d.path / "box.obj");
+  writeStroke(d.path / "groove.csv", 2, 8, 5.3, 1.0, 100);
+  const auto j = run("cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
+                     shellQuote((d.path / "groove.csv").string()) + " --physics on");
+  EXPECT_EQ(j["nan"], false);
+  EXPECT_EQ(j["components"], 1);
+}
+
+TEST(CutCli, BadInputExitsWithTwo) {
+  TempDir d;
+  writeBox(d.path / "box.obj");
+  {
+    std::ofstream o(d.path / "bad.csv");
+    o << "t,hand,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal\n0,right,knife,0,0,0,0,0,-1,1,0,0,0,"
+         "0\n";
+  }
+  const auto e = run("cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
+                         shellQuote((d.path / "bad.csv").string()),
+                     2);
+  EXPECT_NE(e["stderr"].get<std::string>().find("bad.csv"), std::string::npos);
+  run("cut --mesh " + shellQuote((d.path / "missing.obj").string()) + " --trajectory " +
+          shellQuote((d.path / "bad.csv").string()),
+      2);
+  run("cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory x.csv --physics maybe", 2);
+}
+
+}  // namespace
