@@ -104,7 +104,7 @@ TEST(MassSpring, ExplicitEulerGainsEnergyAtAnyStep) {
 
 State undampedPatch(Params& p) {
   p.tissue.damping = 0.0;
-  return makeState(makeGrid(6, 6, 4.0), p.tissue);
+  return makeState(makeGrid(4, 4, 4.0), p.tissue);
 }
 
 TEST(MassSpring, SymplecticEnergyBoundedExplicitGrows) {
@@ -116,7 +116,7 @@ TEST(MassSpring, SymplecticEnergyBoundedExplicitGrows) {
     const int n = m == Method::SymplecticEuler ? 100000 : 50000;
     for (int i = 0; i < n; ++i) {
       rawStep(p, s, m, 5e-4);
-      if (i % 50 == 0) {
+      if (i % 100 == 0) {
         const double e = energy(p, s).total();
         emax = std::max(emax, e);
         emin = std::min(emin, e);
