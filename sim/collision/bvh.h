@@ -12,9 +12,13 @@
 //                           what the tree saw last and updates locally (new faces go
 //                           into the leaf of an edge neighbour, faces around new
 //                           vertices are refitted, deleted faces leave their leaf);
-//                           a full rebuild only after garbageCollection(), a
-//                           shrinking mesh, or when local growth made the tree too
-//                           deep or it has absorbed as many edits as it had faces;
+//                           a full rebuild when the mesh shrank or was compacted
+//                           since the last sync, or when local growth made the
+//                           tree too deep or it has absorbed as many edits as it
+//                           had faces. garbageCollection() renumbers faces, and a
+//                           compaction after deletions AND additions can leave the
+//                           sizes looking like growth: after garbageCollection()
+//                           call build() (CollisionWorld::rebuild) to be safe;
 //  * or tell it directly -> insertFaces()/removeFaces()/refitFaces().
 // Boxes are tested grown by the tolerance, so boundary hits are never culled.
 #include <cstdint>

@@ -51,6 +51,11 @@ void CollisionWorld::sync() {
   for (Entry& e : entries_) e.bvh.sync(*e.mesh);
 }
 
+void CollisionWorld::rebuild(ObjectId id) {
+  Entry& e = entry(id);
+  e.bvh.build(*e.mesh);
+}
+
 void CollisionWorld::refit() {
   for (Entry& e : entries_) e.bvh.refit(*e.mesh);
 }

@@ -63,6 +63,8 @@ class CollisionWorld {
   void sync();   // topology of every object (local; see TriangleBvh::sync)
   void refit();  // boxes of every object, O(triangles)
   void update() { sync(), refit(); }
+  // Full rebuild of one object's tree (after mesh.garbageCollection()).
+  void rebuild(ObjectId id);
 
   void intersectSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b, std::vector<ObjectHit>& out) const;
   [[nodiscard]] std::vector<ObjectHit> intersectSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {

@@ -107,6 +107,11 @@ TEST(CollisionWorld, FollowsCuttingEditsAndMovesAndFreedPieces) {
   world.rebind(p, moved);
   world.sync();
   EXPECT_EQ(world.intersectSegment(a, c).size(), 4u);
+  // Compaction renumbers faces: rebuild.
+  moved.deleteFace(mesh::Face(0u));
+  moved.garbageCollection();
+  world.rebuild(p);
+  EXPECT_EQ(world.bvh(p).check(moved), "");
   world.remove(p);
   EXPECT_FALSE(world.contains(p));
   EXPECT_TRUE(world.contains(id));
