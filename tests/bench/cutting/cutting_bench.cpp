@@ -1,0 +1,72 @@
+// Remeshing cost per cut triangle, triangles added per cut triangle, and the physics
+// step before and after 1000 cut triangles.
+//   cutting_bench --benchmark_counters_tabular=true
+#include <benchmark/benchmark.h>
+
+#include "sim/cutting/cutter.h"
+#include "sim/physics/mass_spring.h"
+#include "tests/sim/cutting/cut_test_meshes.h"
+
+namespace {
+
+using ld::cutting::test::Vec3;
+
+// The default slab's size and resolution (80 x 60 x 5 mm, 54 x 40 x 4 cells).
+ld::mesh::SurfaceMesh slab() {
+  return ld::cutting::test::makeBox(Vec3(-40, -30, -2.5), Vec3(40, 30, 2.5), {54, 40, 4});
+}
+
+// Parallel strokes across the slab: cut-through (tip below) or groove (tip inside).
+void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
+  for (int s = 0; s < strokes; ++s) {
+    const double y = -25.0 + 50.0 * (s + 0.37) / strokes;
+    ld::cutting::test::stroke(e, Vec3(-45, y, tipZ), Vec3(45, y + 3.1, tipZ), Vec3(0, 0, -1), 100.0, 1000.0);
+  }
+}
+
+void BM_Remesh(benchmark::State& state) {
+  const double tipZ = state.range(0) == 0 ? -4.0 : 0.5;  // 0: cut-through, 1: groove
+  const auto base = slab();
+  double us = 0, perTri = 0;
+  long cut = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    ld::cutting::CutEngine e;
+    e.addObject(base);
+    state.ResumeTiming();
+    cutStrokes(e, 4, tipZ);
+    const auto& st = e.stats();
+    us = st.remeshMicrosPerCutTriangle();
+    cut = st.trianglesCut;
+    perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
+  }
+  state.counters["remesh_us_per_cut_triangle"] = us;
+  state.counters["triangles_added_per_cut_triangle"] = perTri;
+  state.counters["triangles_cut"] = static_cast<double>(cut);
+}
+BENCHMARK(BM_Remesh)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+void BM_PhysicsStepAfterCuts(benchmark::State& state) {
+  ld::cutting::CutEngine e;
+  e.addObject(slab());
+  if (state.range(0) > 0) {
+    int strokes = 0;
+    while (e.stats().trianglesCut < state.range(0) && strokes < 40) {
+      const double y = -27.0 + 1.37 * strokes;
+      ld::cutting::test::stroke(e, Vec3(-45, y, 0.5), Vec3(45, y + 0.9, 0.5), Vec3(0, 0, -1), 200.0, 1000.0);
+      ++strokes;
+    }
+  }
+  ld::physics::TissueParams tp;
+  ld::physics::Params pp;
+  auto st = ld::physics::makeState(e.objects()[0].mesh, tp);
+  for (int i = 0; i < 10; ++i) ld::physics::step(pp, st, 1e-3);
+  for (auto _ : state) ld::physics::step(pp, st, 1e-3);
+  state.counters["triangles_cut"] = static_cast<double>(e.stats().trianglesCut);
+  state.counters["faces"] = static_cast<double>(st.mesh.nFaces());
+}
+BENCHMARK(BM_PhysicsStepAfterCuts)->Arg(0)->Arg(1000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
