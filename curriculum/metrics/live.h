@@ -25,7 +25,7 @@ class LiveDeviation {
  public:
   // maxOverlap bounds the work per point where a projection folds many polygons onto
   // one place (then the live value is approximate until finish()).
-  explicit LiveDeviation(const Polyline& drawn, std::size_t maxOverlap = 256);
+  explicit LiveDeviation(const Polyline& drawn, std::size_t maxOverlap = 64);
   void addCutPoint(const Eigen::Vector3d& p);
   // Closes the loop at the drawn path's end: the value then equals deviation().
   void finish();
