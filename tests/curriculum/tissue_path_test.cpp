@@ -123,8 +123,9 @@ TEST(CutPathRecorder, OnePiecePerOriginalTriangleAndStopsOnLift) {
     const SurfaceLocation loc = closestLocation(m, V(x, y, 0), &d);
     rec.contact(m, loc.face, V(x, y, 0));
   };
-  // Along y = 0.2 from x = 0.05 to 1.95 in small steps: faces 0 (x<1) then 2 (split).
-  for (int k = 0; k <= 19; ++k) at(0.05 + 0.1 * k, 0.2);
+  // Along y = 0.02 from x = 0.05 to 1.95 in small steps: faces 0 (x<1) then 2 (split);
+  // below the squares' diagonals all the way.
+  for (int k = 0; k <= 19; ++k) at(0.05 + 0.1 * k, 0.02);
   rec.loseContact();
   at(3.5, 3.5);
   at(3.6, 3.55);
@@ -132,10 +133,10 @@ TEST(CutPathRecorder, OnePiecePerOriginalTriangleAndStopsOnLift) {
   const Polyline& p = rec.path();
   // First and last point in each original triangle, the stop at the lift.
   ASSERT_EQ(p.size(), 5u);
-  EXPECT_TRUE(test::nearVec(p[0].p, V(0.05, 0.2, 0), 1e-12));
-  EXPECT_TRUE(test::nearVec(p[1].p, V(0.95, 0.2, 0), 1e-12));
-  EXPECT_TRUE(test::nearVec(p[2].p, V(1.05, 0.2, 0), 1e-12));
-  EXPECT_TRUE(test::nearVec(p[3].p, V(1.95, 0.2, 0), 1e-12));
+  EXPECT_TRUE(test::nearVec(p[0].p, V(0.05, 0.02, 0), 1e-12));
+  EXPECT_TRUE(test::nearVec(p[1].p, V(0.95, 0.02, 0), 1e-12));
+  EXPECT_TRUE(test::nearVec(p[2].p, V(1.05, 0.02, 0), 1e-12));
+  EXPECT_TRUE(test::nearVec(p[3].p, V(1.95, 0.02, 0), 1e-12));
   EXPECT_TRUE(p[3].stop);
   EXPECT_TRUE(test::nearVec(p[4].p, V(3.5, 3.5, 0), 1e-12));
   ASSERT_EQ(done.size(), 6u);
