@@ -2,6 +2,7 @@
 // lapdissect-cli: argument handling shared by the command groups. Each group lives
 // in its own file (mesh_commands.cpp, sim_commands.cpp, ...) and receives the
 // arguments after the group word.
+#include <functional>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -42,6 +43,10 @@ struct Args {
 
 // Prints compact JSON and a newline on stdout.
 void printJson(const nlohmann::json& j);
+
+// Runs fn, turning the trainee store's exceptions into CliError with the fixed exit
+// codes (3 failed login, 4 not permitted, 2 bad input, 1 internal).
+int withStoreErrors(const std::function<int()>& fn);
 
 int runMesh(const Args& args);
 int runSim(const Args& args);

@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <string>
 
@@ -233,9 +234,9 @@ int dispatch(const Args& args) {
 
 }  // namespace
 
-int runDb(const Args& args) {
+int withStoreErrors(const std::function<int()>& fn) {
   try {
-    return dispatch(args);
+    return fn();
   } catch (const db::AuthFailed& e) {
     throw CliError(kAuthFailed, e.what());
   } catch (const db::NotPermitted& e) {
@@ -255,6 +256,10 @@ int runDb(const Args& args) {
   } catch (const db::DbError& e) {
     throw CliError(kInternal, e.what());
   }
+}
+
+int runDb(const Args& args) {
+  return withStoreErrors([&] { return dispatch(args); });
 }
 
 }  // namespace ld::cli

@@ -170,7 +170,7 @@ int run(const Args& args) {
   nlohmann::json out = runJson(task, r);
   if (args.has("db")) {
     const std::string& trainee = args.get("trainee");
-    try {
+    withStoreErrors([&] {
       auto store = db::Store::open(args.get("db"));
       const std::string pw = readPassword(trainee);
       const db::Session s = store.login(trainee, pw);
@@ -190,21 +190,8 @@ int run(const Args& args) {
       rec.samples = trajText;
       rec.samplesFormat = "trajectory-csv";
       out["attempt_id"] = store.recordAttempt(s, rec);
-    } catch (const db::AuthFailed& e) {
-      throw CliError(kAuthFailed, e.what());
-    } catch (const db::NotPermitted& e) {
-      throw CliError(kNotPermitted, e.what());
-    } catch (const db::InvalidArgument& e) {
-      throw CliError(kBadInput, e.what());
-    } catch (const db::CorruptDatabase& e) {
-      throw CliError(kBadInput, e.what());
-    } catch (const db::SchemaTooNew& e) {
-      throw CliError(kBadInput, e.what());
-    } catch (const db::NotFound& e) {
-      throw CliError(kBadInput, e.what());
-    } catch (const db::DbError& e) {
-      throw CliError(kInternal, e.what());
-    }
+      return kOk;
+    });
   }
   printJson(out);
   return kOk;
