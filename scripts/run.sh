@@ -4,7 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_BUILD_TESTS=OFF -DLD_BUILD_BENCHMARKS=OFF >/dev/null
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+export CCACHE_BASEDIR="$(pwd)" CCACHE_NOHASHDIR=1
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_BUILD_TESTS=OFF -DLD_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
 cmake --build build -j"$(nproc)" --target lapdissect lapdissect-cli
 if [ -z "${DISPLAY:-}" ] && [ -z "${WAYLAND_DISPLAY:-}" ]; then
   echo "run.sh: no display; starting lapdissect under Xvfb and saving a screenshot to build/first-start.png"
