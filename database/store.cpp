@@ -25,6 +25,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <thread>
 
 #ifdef LD_DB_HAVE_SQLITE3
 #include <sqlite3.h>
@@ -242,9 +243,15 @@ struct Store::Impl {
   // -1: no schema table (an empty database).
   int readVersion() const {
     if (!tableExists("ld_schema")) {
-      if (otherTables() > 0)
-        throw CorruptDatabase(where + ": not a lapdissect database (it has other tables); it was left untouched");
-      return -1;
+      // A workstation migrating at this moment commits ld_schema together with the
+      // other tables, possibly between the two queries: look again before calling the
+      // database foreign.
+      const bool others = otherTables() > 0;
+      if (!tableExists("ld_schema")) {
+        if (others)
+          throw CorruptDatabase(where + ": not a lapdissect database (it has other tables); it was left untouched");
+        return -1;
+      }
     }
     QSqlQuery q = query("SELECT version FROM ld_schema");
     if (!q.next()) throw CorruptDatabase(where + ": the schema version is missing; the database was left untouched");
@@ -457,9 +464,14 @@ Store Store::open(const std::string& url, Options options) {
   if (impl->version > schema::latestVersion()) impl->tooNew(impl->version);
 
   if (impl->sqlite()) {
-    QSqlQuery q(impl->db);
-    if (!q.exec("PRAGMA journal_mode = WAL") || !q.next() || q.value(0).toString() != "wal")
-      throw DbError(impl->where + ": cannot switch the database to WAL mode");
+    // Another workstation opening the same new file may hold its lock for a moment.
+    bool wal = false;
+    for (int attempt = 0; attempt < 100 && !wal; ++attempt) {
+      QSqlQuery q(impl->db);
+      wal = q.exec("PRAGMA journal_mode = WAL") && q.next() && q.value(0).toString() == "wal";
+      if (!wal) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!wal) throw DbError(impl->where + ": cannot switch the database to WAL mode");
     impl->execRaw("PRAGMA foreign_keys = ON");
     impl->execRaw("PRAGMA synchronous = FULL");  // a committed attempt survives a power cut
     impl->execRaw("PRAGMA secure_delete = ON");
