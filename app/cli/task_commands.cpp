@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <utility>
 
 #include "app/cli/cli.h"
 #include "curriculum/curriculum_error.h"
@@ -56,6 +57,21 @@ mesh::SurfaceMesh loadModel(const Task& t, const std::string& taskFile, std::vec
     problems.push_back(e.what());
   }
   return {};
+}
+
+// The task and its model, or exit 2 naming what is wrong.
+std::pair<Task, mesh::SurfaceMesh> loadTaskAndModel(const std::string& taskFile) {
+  Task task;
+  try {
+    task = loadTask(taskFile);
+  } catch (const FormatError& e) {
+    badInput(e.problems(), taskFile);
+  }
+  std::vector<std::string> problems;
+  bool found = false;
+  mesh::SurfaceMesh m = loadModel(task, taskFile, problems, found);
+  if (!found) badInput(problems, taskFile);
+  return {std::move(task), std::move(m)};
 }
 
 int validate(const std::string& file) {
@@ -139,16 +155,9 @@ int run(const Args& args) {
   const std::string& taskFile = args.get("task");
   const std::string& trajFile = args.get("trajectory");
   if (args.has("db") != args.has("trainee")) throw CliError(kBadInput, "--db and --trainee go together");
-  Task task;
-  try {
-    task = loadTask(taskFile);
-  } catch (const FormatError& e) {
-    badInput(e.problems(), taskFile);
-  }
-  std::vector<std::string> problems;
-  bool found = false;
-  const mesh::SurfaceMesh m = loadModel(task, taskFile, problems, found);
-  if (!found) badInput(problems, taskFile);
+  const auto loaded = loadTaskAndModel(taskFile);
+  const Task& task = loaded.first;
+  const mesh::SurfaceMesh& m = loaded.second;
   devices::Trajectory tr;
   std::string trajText;
   try {
@@ -200,16 +209,9 @@ int run(const Args& args) {
 // Writes a scripted trainee's trajectory (level 0 = expert, 1..3 = novices).
 int script(const Args& args) {
   const std::string& taskFile = args.get("task");
-  Task task;
-  try {
-    task = loadTask(taskFile);
-  } catch (const FormatError& e) {
-    badInput(e.problems(), taskFile);
-  }
-  std::vector<std::string> problems;
-  bool found = false;
-  const mesh::SurfaceMesh m = loadModel(task, taskFile, problems, found);
-  if (!found) badInput(problems, taskFile);
+  const auto loaded = loadTaskAndModel(taskFile);
+  const Task& task = loaded.first;
+  const mesh::SurfaceMesh& m = loaded.second;
   const double level = args.getDouble("level", 0.0), seed = args.getDouble("seed", 1.0),
                rate = args.getDouble("rate", 250.0);
   if (level < 0 || level > 3 || level != std::floor(level))

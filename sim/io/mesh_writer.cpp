@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <fstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "sim/io/mesh_formats.h"
@@ -21,6 +22,22 @@ void appendIndex(std::string& out, std::size_t v) {
   char buf[24];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
   out.append(buf, r.ptr);
+}
+
+// "a b c" with single spaces (coordinates or corner indices).
+template <class T>
+void appendTriple(std::string& out, T a, T b, T c) {
+  auto one = [&out](T v) {
+    if constexpr (std::is_floating_point_v<T>)
+      appendNumber(out, v);
+    else
+      appendIndex(out, v);
+  };
+  one(a);
+  out += ' ';
+  one(b);
+  out += ' ';
+  one(c);
 }
 
 // Live vertices renumbered 0..n-1 in handle order, and the live faces' corners.
@@ -47,20 +64,12 @@ std::string toObj(const Flat& f) {
   std::string s = "# written by lapdissect\n";
   for (const auto& p : f.points) {
     s += "v ";
-    appendNumber(s, p.x());
-    s += ' ';
-    appendNumber(s, p.y());
-    s += ' ';
-    appendNumber(s, p.z());
+    appendTriple(s, p.x(), p.y(), p.z());
     s += '\n';
   }
   for (const auto& t : f.faces) {
     s += "f ";
-    appendIndex(s, t[0] + 1);
-    s += ' ';
-    appendIndex(s, t[1] + 1);
-    s += ' ';
-    appendIndex(s, t[2] + 1);
+    appendTriple(s, t[0] + 1, t[1] + 1, t[2] + 1);
     s += '\n';
   }
   return s;
@@ -72,20 +81,12 @@ std::string toPly(const Flat& f) {
                   "element face " + std::to_string(f.faces.size()) +
                   "\nproperty list uchar uint vertex_indices\nend_header\n";
   for (const auto& p : f.points) {
-    appendNumber(s, p.x());
-    s += ' ';
-    appendNumber(s, p.y());
-    s += ' ';
-    appendNumber(s, p.z());
+    appendTriple(s, p.x(), p.y(), p.z());
     s += '\n';
   }
   for (const auto& t : f.faces) {
     s += "3 ";
-    appendIndex(s, t[0]);
-    s += ' ';
-    appendIndex(s, t[1]);
-    s += ' ';
-    appendIndex(s, t[2]);
+    appendTriple(s, t[0], t[1], t[2]);
     s += '\n';
   }
   return s;
@@ -116,21 +117,13 @@ std::string toVrml(const Flat& f) {
       "    coord Coordinate {\n      point [\n";
   for (const auto& p : f.points) {
     s += "        ";
-    appendNumber(s, p.x());
-    s += ' ';
-    appendNumber(s, p.y());
-    s += ' ';
-    appendNumber(s, p.z());
+    appendTriple(s, p.x(), p.y(), p.z());
     s += ",\n";
   }
   s += "      ]\n    }\n    coordIndex [\n";
   for (const auto& t : f.faces) {
     s += "      ";
-    appendIndex(s, t[0]);
-    s += ' ';
-    appendIndex(s, t[1]);
-    s += ' ';
-    appendIndex(s, t[2]);
+    appendTriple(s, t[0], t[1], t[2]);
     s += " -1,\n";
   }
   s += "    ]\n  }\n}\n";
