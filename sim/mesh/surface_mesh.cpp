@@ -1,6 +1,7 @@
 #include "sim/mesh/surface_mesh.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <sstream>
@@ -18,6 +19,16 @@ std::string ValidationReport::message() const {
 
 SurfaceMesh::SurfaceMesh() { initBuiltins(); }
 
+// Layout ids are unique across all meshes of the process, so that a cache never takes
+// another mesh's (or an earlier content's) journal for its own.
+void SurfaceMesh::newLayout() {
+  static std::atomic<std::uint64_t> counter{0};
+  layoutVersion_ = counter.fetch_add(1, std::memory_order_relaxed) + 1;
+  journalV_.clear();
+  journalE_.clear();
+  journalF_.clear();
+}
+
 void SurfaceMesh::initBuiltins() {
   vprops_ = PropertyContainer();
   eprops_ = PropertyContainer();
@@ -33,6 +44,7 @@ void SurfaceMesh::initBuiltins() {
   fprops_.add<bool>("f:deleted", false);
   deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
   bindProperties();
+  newLayout();
 }
 
 void SurfaceMesh::bindProperties() {
@@ -56,6 +68,7 @@ SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
       deletedFaces_(o.deletedFaces_),
       topologyVersion_(o.topologyVersion_) {
   bindProperties();
+  newLayout();
 }
 
 SurfaceMesh& SurfaceMesh::operator=(const SurfaceMesh& o) {
@@ -74,7 +87,11 @@ SurfaceMesh::SurfaceMesh(SurfaceMesh&& o) noexcept
       deletedVertices_(o.deletedVertices_),
       deletedEdges_(o.deletedEdges_),
       deletedFaces_(o.deletedFaces_),
-      topologyVersion_(o.topologyVersion_) {
+      topologyVersion_(o.topologyVersion_),
+      layoutVersion_(o.layoutVersion_),
+      journalV_(std::move(o.journalV_)),
+      journalE_(std::move(o.journalE_)),
+      journalF_(std::move(o.journalF_)) {
   bindProperties();
   o.initBuiltins();
 }
@@ -88,14 +105,17 @@ SurfaceMesh& SurfaceMesh::operator=(SurfaceMesh&& o) noexcept {
     deletedEdges_ = o.deletedEdges_;
     deletedFaces_ = o.deletedFaces_;
     topologyVersion_ = o.topologyVersion_ + 1;
+    // The contents are replaced: a cache built for this object's old contents must
+    // not read the journal as a continuation, so the layout is new.
     bindProperties();
     o.initBuiltins();
+    newLayout();
   }
   return *this;
 }
 
 void SurfaceMesh::clear() {
-  initBuiltins();
+  initBuiltins();  // new layout
   ++topologyVersion_;
 }
 
@@ -152,6 +172,7 @@ Vertex SurfaceMesh::addVertex(const Point& p) {
   vprops_.pushBack();
   Vertex v(verticesSize() - 1);
   points_[v] = p;
+  journalV_.push_back(v);
   return v;
 }
 
@@ -162,11 +183,13 @@ Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
   efaces_[e] = {Face(), Face()};
   vedges_[a].push_back(e);
   vedges_[b].push_back(e);
+  journalE_.push_back(e);
   return e;
 }
 
 Face SurfaceMesh::newFace() {
   fprops_.pushBack();
+  journalF_.push_back(Face(facesSize() - 1));
   return Face(facesSize() - 1);
 }
 
@@ -199,7 +222,9 @@ void SurfaceMesh::removeEdgeFromVertex(Vertex v, Edge e) {
 }
 
 void SurfaceMesh::detachFace(Face f) {
+  journalF_.push_back(f);
   for (Edge e : fedges_[f]) {
+    journalE_.push_back(e);
     auto& ef = efaces_[e];
     if (ef[0] == f) {
       ef[0] = ef[1];
@@ -212,6 +237,7 @@ void SurfaceMesh::detachFace(Face f) {
 
 void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c) {
   fverts_[f] = {a, b, c};
+  journalF_.push_back(f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
@@ -223,6 +249,7 @@ void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c) {
     else
       ef[1] = f;
     fedges_[f][i] = e;
+    journalE_.push_back(e);
   }
 }
 
@@ -232,6 +259,7 @@ void SurfaceMesh::deleteEmptyEdge(Edge e) {
   removeEdgeFromVertex(everts_[e][1], e);
   edeleted_[e] = true;
   ++deletedEdges_;
+  journalE_.push_back(e);
 }
 
 // ---- edits ----------------------------------------------------------------------
@@ -265,6 +293,7 @@ void SurfaceMesh::deleteFace(Face f) {
   for (Edge e : fedges_[f]) deleteEmptyEdge(e);
   fdeleted_[f] = true;
   ++deletedFaces_;
+  journalF_.push_back(f);
   ++topologyVersion_;
 }
 
@@ -273,6 +302,7 @@ void SurfaceMesh::deleteVertex(Vertex v) {
   for (Face f : faces(v)) deleteFace(f);
   vdeleted_[v] = true;
   ++deletedVertices_;
+  journalV_.push_back(v);
   ++topologyVersion_;
 }
 
@@ -295,6 +325,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   removeEdgeFromVertex(b, e);
   everts_[e] = {a, m};
   vedges_[m].push_back(e);
+  journalE_.push_back(e);
   const Edge e2 = newEdge(m, b);
   eprops_.copyElement(e.idx(), e2.idx());
   everts_[e2] = {m, b};
@@ -352,6 +383,8 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   const Vertex nv(verticesSize() - 1);
   vprops_.copyElement(v.idx(), nv.idx());
   vedges_[nv].clear();
+  journalV_.push_back(v);
+  journalV_.push_back(nv);
 
   std::vector<Edge> touched;
   std::vector<std::array<Vertex, 3>> tris;
@@ -377,6 +410,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
       eprops_.copyElement(e.idx(), ne.idx());
       everts_[ne] = keepV;
       efaces_[ne] = keepF;
+      journalE_.push_back(ne);
     }
     deleteEmptyEdge(e);
   }
@@ -390,6 +424,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
       eprops_.copyElement(orig.idx(), e.idx());
       everts_[e] = keepV;
       efaces_[e] = keepF;
+      journalE_.push_back(e);
     }
   }
   ++topologyVersion_;
@@ -481,6 +516,7 @@ Compaction SurfaceMesh::garbageCollection() {
     for (auto& e : fe) e = c.edgeMap[e.idx()];
   deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
   ++topologyVersion_;
+  newLayout();
   return c;
 }
 

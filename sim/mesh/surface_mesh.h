@@ -124,6 +124,22 @@ class SurfaceMesh {
   // Incremented by every edit that changes connectivity; caches (spring arrays,
   // BVHs) compare it to know when to rebuild.
   [[nodiscard]] std::uint64_t topologyVersion() const { return topologyVersion_; }
+
+  // ---- edit journal ----------------------------------------------------------
+  // Caches that follow a mesh through many small edits (spring arrays, BVHs, paths
+  // embedded in faces) update locally from the journal instead of rebuilding: every
+  // edit appends the handles it created, deleted, or re-set (a face's corners; an
+  // edge's ends, faces or properties; a vertex split), in edit order, repeats allowed.
+  // Remember layoutVersion() and the three journal sizes; while layoutVersion() is
+  // unchanged, the handles from those sizes on are what changed since. A new
+  // layoutVersion() (garbage collection, clear, copy or assignment: indices or
+  // contents replaced) empties the journal: rebuild. Moving a mesh keeps it.
+  // The journal grows by a few handles per edit until the next layout change.
+  [[nodiscard]] std::uint64_t layoutVersion() const { return layoutVersion_; }
+  [[nodiscard]] std::span<const Vertex> editedVertices() const { return journalV_; }
+  [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_; }
+  [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_; }
+
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
 
   [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v]; }
@@ -301,6 +317,11 @@ class SurfaceMesh {
   FaceProperty<bool> fdeleted_;
   std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
   std::uint64_t topologyVersion_ = 0;
+  std::uint64_t layoutVersion_;
+  std::vector<Vertex> journalV_;
+  std::vector<Edge> journalE_;
+  std::vector<Face> journalF_;
+  void newLayout();
 };
 
 }  // namespace ld::mesh

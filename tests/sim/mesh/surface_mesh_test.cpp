@@ -367,5 +367,142 @@ TEST(SurfaceMesh, RandomEditsKeepInvariants) {
   }
 }
 
+// A cache kept only from the journal stays equal to the mesh through random edits;
+// a layout change (garbage collection, copy) says "rebuild".
+TEST(SurfaceMesh, EditJournalLetsCachesFollowEveryEdit) {
+  struct EdgeEntry {
+    bool deleted;
+    std::array<Vertex, 2> ends;
+    std::array<Face, 2> faces;
+    int tag;
+  };
+  struct FaceEntry {
+    bool deleted;
+    std::array<Vertex, 3> corners;
+  };
+  std::mt19937 rng(7);
+  SurfaceMesh m = grid(4);
+  auto tag = m.addEdgeProperty<int>("e:tag", 0);
+  for (Edge e : m.edges()) tag[e] = static_cast<int>(e.idx()) + 1;
+  std::vector<EdgeEntry> edges;
+  std::vector<FaceEntry> faces;
+  std::vector<bool> vdel;
+  std::uint64_t layout = 0;
+  std::size_t nv = 0, ne = 0, nf = 0;
+  long rebuilds = 0, localUpdates = 0;
+  auto edgeEntry = [&](Edge e) {
+    return EdgeEntry{m.isDeleted(e), {m.vertex(e, 0), m.vertex(e, 1)}, {m.face(e, 0), m.face(e, 1)}, tag[e]};
+  };
+  auto sync = [&] {
+    edges.resize(m.edgesSize());
+    faces.resize(m.facesSize());
+    vdel.resize(m.verticesSize());
+    if (layout != m.layoutVersion()) {
+      ++rebuilds;
+      for (Edge e : m.edges()) edges[e.idx()] = edgeEntry(e);
+      for (std::size_t i = 0; i < m.edgesSize(); ++i) edges[i].deleted = m.isDeleted(Edge(i));
+      for (std::size_t i = 0; i < m.facesSize(); ++i) faces[i] = {m.isDeleted(Face(i)), m.vertices(Face(i))};
+      for (std::size_t i = 0; i < m.verticesSize(); ++i) vdel[i] = m.isDeleted(Vertex(i));
+      layout = m.layoutVersion();
+    } else {
+      ++localUpdates;
+      for (Edge e : m.editedEdges().subspan(ne)) edges[e.idx()] = edgeEntry(e);
+      for (Face f : m.editedFaces().subspan(nf)) faces[f.idx()] = {m.isDeleted(f), m.vertices(f)};
+      for (Vertex v : m.editedVertices().subspan(nv)) vdel[v.idx()] = m.isDeleted(v);
+    }
+    nv = m.editedVertices().size();
+    ne = m.editedEdges().size();
+    nf = m.editedFaces().size();
+  };
+  auto expectCurrent = [&](int step) {
+    for (std::size_t i = 0; i < m.edgesSize(); ++i) {
+      const Edge e(i);
+      ASSERT_EQ(edges[i].deleted, m.isDeleted(e)) << "edge " << i << " step " << step;
+      if (m.isDeleted(e)) continue;
+      const auto now = edgeEntry(e);
+      ASSERT_EQ(edges[i].ends, now.ends) << "edge " << i << " step " << step;
+      ASSERT_EQ(edges[i].faces, now.faces) << "edge " << i << " step " << step;
+      ASSERT_EQ(edges[i].tag, now.tag) << "edge " << i << " step " << step;
+    }
+    for (std::size_t i = 0; i < m.facesSize(); ++i) {
+      ASSERT_EQ(faces[i].deleted, m.isDeleted(Face(i))) << "face " << i << " step " << step;
+      if (!faces[i].deleted) {
+        ASSERT_EQ(faces[i].corners, m.vertices(Face(i))) << "face " << i << " step " << step;
+      }
+    }
+    for (std::size_t i = 0; i < m.verticesSize(); ++i) ASSERT_EQ(vdel[i], m.isDeleted(Vertex(i))) << "vertex " << i;
+  };
+  sync();
+  for (int step = 0; step < 1200; ++step) {
+    std::vector<Face> fs(m.faces().begin(), m.faces().end());
+    std::vector<Edge> es(m.edges().begin(), m.edges().end());
+    const int op = static_cast<int>(rng() % 7);
+    if (op == 0) {
+      const Edge e = es[rng() % es.size()];
+      m.splitEdge(e, 0.5 * (m.position(m.vertex(e, 0)) + m.position(m.vertex(e, 1))));
+    } else if (op == 6) {
+      // Grow a triangle onto a boundary edge: an existing edge gains a face.
+      const Edge e = es[rng() % es.size()];
+      if (m.isBoundary(e)) {
+        const Face f = m.face(e, 0);
+        const int i = m.localIndex(f, e);
+        const Vertex a = m.vertices(f)[static_cast<std::size_t>(i)];
+        const Vertex b = m.vertices(f)[static_cast<std::size_t>((i + 1) % 3)];
+        const Vertex c = m.addVertex(0.5 * (m.position(a) + m.position(b)) + Point(0, 0, 1));
+        EXPECT_TRUE(m.addFace(b, a, c).isValid());
+      }
+    } else if (op == 1) {
+      const Face f = fs[rng() % fs.size()];
+      m.splitFace(f, m.centroid(f));
+    } else if (op == 2) {
+      const Vertex v(static_cast<std::uint32_t>(rng() % m.verticesSize()));
+      if (m.isValid(v) && !m.isIsolated(v)) {
+        auto around = m.faces(v);
+        if (around.size() >= 2) {
+          std::vector<Face> fan{around[rng() % around.size()]};
+          m.splitVertex(v, fan);
+        }
+      }
+    } else if (op == 3) {
+      const Edge e = es[rng() % es.size()];
+      if (!m.isBoundary(e)) m.separateEdge(e);
+    } else if (op == 4 && fs.size() > 8) {
+      m.deleteFace(fs[rng() % fs.size()]);
+    } else if (op == 5 && fs.size() > 8 && rng() % 4 == 0) {
+      const Vertex v = m.vertices(fs[rng() % fs.size()])[0];
+      m.deleteVertex(v);
+    }
+    if (step % 400 == 399) m.garbageCollection();
+    if (step == 700) {
+      SurfaceMesh copy = m;  // a copy is a new layout: nothing may be taken from its journal
+      EXPECT_NE(copy.layoutVersion(), m.layoutVersion());
+      EXPECT_TRUE(copy.editedFaces().empty());
+      const auto before = m.layoutVersion();
+      SurfaceMesh moved = std::move(copy);
+      EXPECT_NE(moved.layoutVersion(), before);
+    }
+    sync();
+    expectCurrent(step);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  EXPECT_EQ(rebuilds, 1 + 3);  // the start and three garbage collections
+  EXPECT_GT(localUpdates, 1000);
+}
+
+TEST(SurfaceMesh, MovingKeepsTheLayoutAndJournal) {
+  SurfaceMesh m = square();
+  const auto layout = m.layoutVersion();
+  const auto edits = m.editedFaces().size();
+  EXPECT_GT(edits, 0u);
+  SurfaceMesh moved = std::move(m);
+  EXPECT_EQ(moved.layoutVersion(), layout);
+  EXPECT_EQ(moved.editedFaces().size(), edits);
+  EXPECT_NE(m.layoutVersion(), layout);  // NOLINT: the moved-from mesh is a new, empty one
+  const auto g = moved.garbageCollection();
+  (void)g;
+  EXPECT_NE(moved.layoutVersion(), layout);
+  EXPECT_TRUE(moved.editedEdges().empty());
+}
+
 }  // namespace
 }  // namespace ld::mesh
