@@ -1,11 +1,9 @@
 #include "devices/trajectory.h"
 
-#include <charconv>
-#include <cmath>
-#include <fstream>
+#include "devices/csv_text.h"
+
 #include <iomanip>
 #include <ostream>
-#include <sstream>
 
 namespace ld::devices {
 
@@ -13,24 +11,6 @@ namespace {
 
 constexpr const char* kHeader = "t,hand,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal";
 constexpr std::size_t kColumns = 14;
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> splitCommas(std::string_view line) {
-  std::vector<std::string_view> out;
-  std::size_t start = 0;
-  for (std::size_t i = 0; i <= line.size(); ++i) {
-    if (i == line.size() || line[i] == ',') {
-      out.push_back(trim(line.substr(start, i - start)));
-      start = i + 1;
-    }
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -45,30 +25,17 @@ std::vector<PoseSample> Trajectory::hand(instruments::Hand h) const {
 
 Trajectory parseTrajectoryCsv(std::string_view text, const std::string& name) {
   Trajectory tr;
-  long lineNo = 0;
   bool headerSeen = false;
   static const char* columnNames[kColumns] = {"t",     "hand",  "tool", "tip_x", "tip_y", "tip_z", "dir_x",
                                               "dir_y", "dir_z", "up_x", "up_y",  "up_z",  "jaw",   "pedal"};
-  std::size_t pos = 0;
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;  // byte-order mark
-  while (pos <= text.size()) {
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    const std::string_view line = trim(text.substr(pos, end - pos));
-    pos = end + 1;
-    ++lineNo;
-    if (line.empty() || line.front() == '#') {
-      if (end == text.size()) break;
-      continue;
-    }
-    const auto cols = splitCommas(line);
+  const long lines = csv::forEachRecord(text, [&](long lineNo, std::string_view line) {
+    const auto cols = csv::splitFields(line);
     if (!headerSeen) {
       bool ok = cols.size() == kColumns;
       for (std::size_t i = 0; ok && i < kColumns; ++i) ok = cols[i] == columnNames[i];
       if (!ok) throw ParseError(name, lineNo, std::string("expected header '") + kHeader + "'");
       headerSeen = true;
-      if (end == text.size()) break;
-      continue;
+      return;
     }
     if (cols.size() != kColumns)
       throw ParseError(name, lineNo,
@@ -76,13 +43,9 @@ Trajectory parseTrajectoryCsv(std::string_view text, const std::string& name) {
     double v[kColumns] = {};
     for (std::size_t i = 0; i < kColumns; ++i) {
       if (i == 1 || i == 2) continue;
-      const auto s = cols[i];
-      const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v[i]);
-      if (ec != std::errc() || ptr != s.data() + s.size() || s.empty())
-        throw ParseError(name, lineNo,
-                         std::string("column ") + columnNames[i] + ": '" + std::string(s) + "' is not a number");
-      if (!std::isfinite(v[i]))
-        throw ParseError(name, lineNo, std::string("column ") + columnNames[i] + " is not finite");
+      const auto status = csv::parseNumber(cols[i], v[i]);
+      if (status != csv::NumberStatus::Ok)
+        throw ParseError(name, lineNo, csv::numberProblem(columnNames[i], cols[i], status));
     }
     PoseSample s;
     s.t = v[0];
@@ -109,18 +72,15 @@ Trajectory parseTrajectoryCsv(std::string_view text, const std::string& name) {
           name, lineNo,
           "time goes backwards (" + std::to_string(s.t) + " after " + std::to_string(tr.samples.back().t) + ")");
     tr.samples.push_back(s);
-    if (end == text.size()) break;
-  }
-  if (!headerSeen) throw ParseError(name, lineNo == 0 ? 1 : lineNo, "empty file: no header");
+  });
+  if (!headerSeen) throw ParseError(name, lines == 0 ? 1 : lines, "empty file: no header");
   return tr;
 }
 
 Trajectory readTrajectoryCsv(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw ParseError(file.string(), 0, "cannot open file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parseTrajectoryCsv(ss.str(), file.string());
+  std::string text;
+  if (!csv::readFile(file, text)) throw ParseError(file.string(), 0, "cannot open file");
+  return parseTrajectoryCsv(text, file.string());
 }
 
 void writeTrajectoryCsv(const Trajectory& tr, std::ostream& out) {

@@ -84,9 +84,11 @@ TEST(Trajectory, BadInputNamesFileLineAndReason) {
 }
 
 TEST(Trajectory, ToleratesCommentsBlankLinesCrlfAndBom) {
-  const auto tr = parseTrajectoryCsv("\xEF\xBB\xBF# recorded\r\n" + std::string("t, hand ,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal\r\n") +
-                                         "\r\n0,left,scalpel,0,0,0,0,0,-1,1,0,0,0,0\r\n",
-                                     "crlf.csv");
+  const auto tr = parseTrajectoryCsv(
+      "\xEF\xBB\xBF# recorded\r\n" +
+          std::string("t, hand ,tool,tip_x,tip_y,tip_z,dir_x,dir_y,dir_z,up_x,up_y,up_z,jaw,pedal\r\n") +
+          "\r\n0,left,scalpel,0,0,0,0,0,-1,1,0,0,0,0\r\n",
+      "crlf.csv");
   ASSERT_EQ(tr.samples.size(), 1u);
   EXPECT_EQ(tr.samples[0].tool, instruments::Tool::Scalpel);
 }
