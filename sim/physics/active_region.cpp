@@ -10,11 +10,9 @@ namespace ld::physics {
 
 using Vec3 = Eigen::Vector3d;
 
-StepInfo step(const Params& params, State& state, double dt);
-
 namespace {
 
-void ensureActiveSet(State& s, const Params& p) {
+void ensureActiveSet(Dynamics& s, const Params& p) {
   auto& a = s.active;
   const auto& c = s.cache;
   if (a.topologyVersion == c.topologyVersion && a.awake.size() == c.nVertexSlots) return;
@@ -42,14 +40,14 @@ void ensureActiveSet(State& s, const Params& p) {
 
 }  // namespace
 
-StepInfo activeStep(const Params& params, State& state, double dt) {
+StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, double dt) {
   ensureActiveSet(state, params);
   auto& a = state.active;
   const auto& c = state.cache;
-  auto& x = state.mesh.positions();
-  auto& v = state.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
-  const auto& home = state.mesh.getVertexProperty<Vec3>(kHomeProp).vector();
-  const auto& ext = state.mesh.getVertexProperty<Vec3>(kForceProp).vector();
+  auto& x = mesh.positions();
+  auto& v = mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
+  const auto& home = mesh.getVertexProperty<Vec3>(kHomeProp).vector();
+  const auto& ext = mesh.getVertexProperty<Vec3>(kForceProp).vector();
   const auto& tp = params.tissue;
   const auto& ao = params.active;
   const std::size_t n = c.nVertexSlots;
@@ -93,7 +91,7 @@ StepInfo activeStep(const Params& params, State& state, double dt) {
     Params full = params;
     full.active.enabled = false;
     a.topologyVersion = ~std::uint64_t{0};
-    return step(full, state, dt);
+    return step(full, state, mesh, dt);
   }
   for (std::size_t q = 0; q < a.list.size(); ++q) {
     const std::uint32_t i = a.list[q];

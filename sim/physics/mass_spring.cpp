@@ -180,15 +180,14 @@ mesh::VertexProperty<T> requireV(const mesh::SurfaceMesh& m, const char* name) {
   return p;
 }
 
-void ensureCache(State& s) {
+// Returns true when the cache was rebuilt.
+bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
   Cache& c = s.cache;
-  const auto& m = s.mesh;
-  if (c.topologyVersion == m.topologyVersion() && c.nVertexSlots == m.verticesSize()) return;
+  if (c.topologyVersion == m.topologyVersion() && c.nVertexSlots == m.verticesSize()) return false;
   if (!hasTissueProperties(m)) throw MissingPropertyError(kHomeProp);
   const auto rest = m.getEdgeProperty<double>(kRestProp);
   const auto k = m.getEdgeProperty<double>(kStiffnessProp);
   const auto mass = m.getVertexProperty<double>(kMassProp);
-  auto vel = s.mesh.getVertexProperty<Vec3>(kVelocityProp);
   c.springs.clear();
   c.springs.reserve(m.nEdges());
   for (mesh::Edge e : m.edges()) c.springs.push_back({m.vertex(e, 0).idx(), m.vertex(e, 1).idx(), rest[e], k[e]});
@@ -200,23 +199,34 @@ void ensureCache(State& s) {
     c.mass[v.idx()] = mass[v];
     c.invMass[v.idx()] = mass[v] > 0 ? 1.0 / mass[v] : 0.0;
   }
-  for (std::size_t i = 0; i < n; ++i)
-    if (c.invMass[i] == 0.0) vel.vector()[i].setZero();
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb}) buf->assign(n, Vec3::Zero());
   c.forceZero = true;
   c.topologyVersion = m.topologyVersion();
   ++c.rebuilds;
   s.energyBudget = std::numeric_limits<double>::quiet_NaN();  // cuts change the energy
+  return true;
 }
 
-View makeView(const Params& p, const State& s) {
+// Massless (deleted) vertices never move.
+void zeroMasslessVelocities(const Cache& c, mesh::SurfaceMesh& m) {
+  auto& v = m.getVertexProperty<Vec3>(kVelocityProp).vector();
+  for (std::size_t i = 0; i < c.nVertexSlots && i < v.size(); ++i)
+    if (c.invMass[i] == 0.0) v[i].setZero();
+}
+
+// The cache of a step's dynamics, refreshed for this mesh.
+void prepare(Dynamics& d, mesh::SurfaceMesh& m) {
+  if (ensureCache(d, m)) zeroMasslessVelocities(d.cache, m);
+}
+
+View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
   const Cache& c = s.cache;
   View w;
   w.springs = c.springs.data();
   w.nSprings = c.springs.size();
   w.n = c.nVertexSlots;
-  w.home = s.mesh.getVertexProperty<Vec3>(kHomeProp).vector().data();
-  w.ext = s.mesh.getVertexProperty<Vec3>(kForceProp).vector().data();
+  w.home = m.getVertexProperty<Vec3>(kHomeProp).vector().data();
+  w.ext = m.getVertexProperty<Vec3>(kForceProp).vector().data();
   w.invMass = c.invMass.data();
   w.mass = c.mass.data();
   w.homeK = p.tissue.homeK;
@@ -552,15 +562,15 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
   return {};
 }
 
-std::vector<Vec3>& velocities(State& s) { return requireV<Vec3>(s.mesh, kVelocityProp).vector(); }
+std::vector<Vec3>& velocities(mesh::SurfaceMesh& m) { return requireV<Vec3>(m, kVelocityProp).vector(); }
 
 // Runs `substeps` monitored substeps of m from the state into (xb, vb); on success
 // updates *budget.
-bool attemptSubsteps(Method m, const Params& p, const View& w, State& s, double dt, int substeps, double* budget,
-                     const char** reason) {
+bool attemptSubsteps(Method m, const Params& p, const View& w, Dynamics& s, mesh::SurfaceMesh& mesh, double dt,
+                     int substeps, double* budget, const char** reason) {
   Cache& c = s.cache;
   const double h = dt / substeps;
-  std::vector<Vec3> xs(s.mesh.positions()), vs(velocities(s));  // start copy; retries are rare
+  std::vector<Vec3> xs(mesh.positions()), vs(velocities(mesh));  // start copy; retries are rare
   double b = *budget;
   for (int k = 0; k < substeps; ++k) {
     const E0 e0 = integrate(m, p, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h);
@@ -579,9 +589,9 @@ bool attemptSubsteps(Method m, const Params& p, const View& w, State& s, double 
   return true;
 }
 
-void commit(State& s) {
-  std::swap(s.mesh.positions(), s.cache.xb);
-  std::swap(velocities(s), s.cache.vb);
+void commit(Dynamics& s, mesh::SurfaceMesh& m) {
+  std::swap(m.positions(), s.cache.xb);
+  std::swap(velocities(m), s.cache.vb);
 }
 
 }  // namespace
@@ -595,10 +605,12 @@ State makeState(mesh::SurfaceMesh m, const TissueParams& p) {
   return s;
 }
 
-bool isFinite(const State& s) {
-  for (const Vec3& x : s.mesh.positions())
+bool isFinite(const State& s) { return isFinite(s.mesh); }
+
+bool isFinite(const mesh::SurfaceMesh& mesh) {
+  for (const Vec3& x : mesh.positions())
     if (!x.allFinite()) return false;
-  const auto v = s.mesh.getVertexProperty<Vec3>(kVelocityProp);
+  const auto v = mesh.getVertexProperty<Vec3>(kVelocityProp);
   if (v)
     for (const Vec3& u : v.vector())
       if (!u.allFinite()) return false;
@@ -606,44 +618,48 @@ bool isFinite(const State& s) {
 }
 
 bool rawStep(const Params& params, State& state, Method method, double dt) {
-  FlushDenormals ftz;
-  ensureCache(state);
-  const View w = makeView(params, state);
-  Cache& c = state.cache;
-  integrate(method, params, w, c, state.mesh.positions().data(), velocities(state).data(), c.xb.data(), c.vb.data(),
-            dt);
-  commit(state);
-  state.time += dt;
-  ++state.steps;
-  return isFinite(state);
+  return rawStep(params, state, state.mesh, method, dt);
 }
 
-StepInfo activeStep(const Params& params, State& state, double dt);  // active_region.cpp
+bool rawStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, Method method, double dt) {
+  FlushDenormals ftz;
+  prepare(state, mesh);
+  const View w = makeView(params, state, mesh);
+  Cache& c = state.cache;
+  integrate(method, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
+  commit(state, mesh);
+  state.time += dt;
+  ++state.steps;
+  return isFinite(mesh);
+}
 
-StepInfo step(const Params& params, State& state, double dt) {
+StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, double dt);  // active_region.cpp
+
+StepInfo step(const Params& params, State& state, double dt) { return step(params, state, state.mesh, dt); }
+
+StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, double dt) {
   if (!(dt > 0.0) || !std::isfinite(dt)) throw PhysicsError("step: dt must be positive and finite");
   FlushDenormals ftz;
-  ensureCache(state);
-  if (params.active.enabled && params.method == Method::SymplecticEuler) return activeStep(params, state, dt);
-  const View w = makeView(params, state);
+  prepare(state, mesh);
+  if (params.active.enabled && params.method == Method::SymplecticEuler) return activeStep(params, state, mesh, dt);
+  const View w = makeView(params, state, mesh);
   Cache& c = state.cache;
   StepInfo info;
-  info.activeVertices = state.mesh.nVertices();
+  info.activeVertices = mesh.nVertices();
   const Method m = params.method;
   const int sticky = state.stickyLeft > 0 ? state.stickySubsteps : 1;
   double budget = state.energyBudget;
   const char* reason = "";
   bool ok = false;
   if (sticky == 1) {
-    const E0 e0 = integrate(m, params, w, c, state.mesh.positions().data(), velocities(state).data(), c.xb.data(),
-                            c.vb.data(), dt);
-    const Check chk =
-        checkStep(params.stability, w, state.mesh.positions().data(), c.xb.data(), c.vb.data(), e0, budget);
+    const E0 e0 =
+        integrate(m, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
+    const Check chk = checkStep(params.stability, w, mesh.positions().data(), c.xb.data(), c.vb.data(), e0, budget);
     ok = chk.ok;
     if (ok) budget = nextBudget(params.stability, budget, chk, e0, dt);
     reason = chk.reason;
   } else {
-    ok = attemptSubsteps(m, params, w, state, dt, sticky, &budget, &reason);
+    ok = attemptSubsteps(m, params, w, state, mesh, dt, sticky, &budget, &reason);
     info.substeps = sticky;
   }
   info.accepted = ok;
@@ -654,7 +670,7 @@ StepInfo step(const Params& params, State& state, double dt) {
   // Recovery: more substeps of the same method, then the implicit method.
   for (int n = 2 * sticky; !ok && m != Method::ImplicitEuler && n <= params.stability.maxSubsteps; n *= 2) {
     ++state.stability.substepRetries;
-    ok = attemptSubsteps(m, params, w, state, dt, n, &budget, &reason);
+    ok = attemptSubsteps(m, params, w, state, mesh, dt, n, &budget, &reason);
     if (ok) {
       info.substeps = n;
       state.stickySubsteps = n;
@@ -667,67 +683,79 @@ StepInfo step(const Params& params, State& state, double dt) {
     // Implicit Euler only dissipates; its step is checked for finiteness alone.
     Params ip = params;
     ip.stability.enabled = false;
-    ok = attemptSubsteps(Method::ImplicitEuler, ip, w, state, dt, 1, &budget, &reason);
+    ok = attemptSubsteps(Method::ImplicitEuler, ip, w, state, mesh, dt, 1, &budget, &reason);
     if (!ok) state.stability.lastReason = reason;
   }
   if (!ok) {
     // Last resort: keep the last good positions, stop the motion.
     ++state.stability.velocityResets;
-    c.xb = state.mesh.positions();
+    c.xb = mesh.positions();
     for (auto& u : c.vb) u.setZero();
   }
   state.energyBudget = budget;
   if (state.stickyLeft > 0) --state.stickyLeft;
-  commit(state);
+  commit(state, mesh);
   state.time += dt;
   ++state.steps;
   return info;
 }
 
-Energy energy(const Params& params, const State& state) {
-  State& s = const_cast<State&>(state);  // the cache is derived data
-  ensureCache(s);
-  const View w = makeView(params, s);
+Energy energy(const Params& params, const State& state) { return energy(params, state, state.mesh); }
+
+Energy energy(const Params& params, const Dynamics& state, const mesh::SurfaceMesh& mesh) {
+  Dynamics& s = const_cast<Dynamics&>(state);  // the cache is derived data
+  ensureCache(s, mesh);
+  const View w = makeView(params, s, mesh);
   std::vector<Vec3> f(w.n, Vec3::Zero());
   Energy e;
-  const auto& x = s.mesh.positions();
+  const auto& x = mesh.positions();
   e.spring = springForces(w, x.data(), f.data());
   for (std::size_t i = 0; i < w.n; ++i)
     if (w.invMass[i] != 0.0) e.home += 0.5 * w.homeK * (x[i] - w.home[i]).squaredNorm();
-  e.kinetic = kinetic(w, s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data());
+  e.kinetic = kinetic(w, mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data());
   return e;
 }
 
-std::vector<Vec3> forces(const Params& params, const State& state) {
-  State& s = const_cast<State&>(state);
-  ensureCache(s);
-  const View w = makeView(params, s);
+std::vector<Vec3> forces(const Params& params, const State& state) { return forces(params, state, state.mesh); }
+
+std::vector<Vec3> forces(const Params& params, const Dynamics& state, const mesh::SurfaceMesh& mesh) {
+  Dynamics& s = const_cast<Dynamics&>(state);
+  ensureCache(s, mesh);
+  const View w = makeView(params, s, mesh);
   std::vector<Vec3> f(w.n);
-  totalForces(w, s.mesh.positions().data(), s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data(), f.data());
+  totalForces(w, mesh.positions().data(), mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data(), f.data());
   return f;
 }
 
 double maxResidualForce(const Params& params, const State& state) {
-  State& s = const_cast<State&>(state);
-  ensureCache(s);
-  const View w = makeView(params, s);
+  return maxResidualForce(params, state, state.mesh);
+}
+
+double maxResidualForce(const Params& params, const Dynamics& state, const mesh::SurfaceMesh& mesh) {
+  Dynamics& s = const_cast<Dynamics&>(state);
+  ensureCache(s, mesh);
+  const View w = makeView(params, s, mesh);
   std::vector<Vec3> f(w.n);
-  totalForces(w, s.mesh.positions().data(), nullptr, f.data());
+  totalForces(w, mesh.positions().data(), nullptr, f.data());
   double r = 0.0;
   for (const Vec3& u : f) r = std::max(r, u.norm());
   return r;
 }
 
 SettleResult settle(const Params& params, State& state, const SettleOptions& opt) {
+  return settle(params, state, state.mesh, opt);
+}
+
+SettleResult settle(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, const SettleOptions& opt) {
   SettleResult r;
-  const double r0 = maxResidualForce(params, state);
+  const double r0 = maxResidualForce(params, state, mesh);
   r.residual = r0;
   const auto maxSteps = static_cast<std::uint64_t>(std::ceil(opt.maxTime / opt.dt));
   const int every = std::max(1, opt.checkEvery);
   while (r.steps < maxSteps) {
-    for (int k = 0; k < every && r.steps < maxSteps; ++k, ++r.steps) step(params, state, opt.dt);
+    for (int k = 0; k < every && r.steps < maxSteps; ++k, ++r.steps) step(params, state, mesh, opt.dt);
     r.time = static_cast<double>(r.steps) * opt.dt;
-    r.residual = maxResidualForce(params, state);
+    r.residual = maxResidualForce(params, state, mesh);
     // Progress on a log scale from the first residual to the tolerance.
     if (opt.progress) {
       double prog = 1.0;
@@ -736,7 +764,7 @@ SettleResult settle(const Params& params, State& state, const SettleOptions& opt
       opt.progress(prog, r.residual);
     }
     double vmax = 0.0;
-    for (const Vec3& u : velocities(state)) vmax = std::max(vmax, u.norm());
+    for (const Vec3& u : velocities(mesh)) vmax = std::max(vmax, u.norm());
     // Settled: small residual and no motion left to carry the tissue past it.
     if (r.residual <= opt.tolerance && vmax <= opt.speedTolerance) {
       r.converged = true;
@@ -744,7 +772,7 @@ SettleResult settle(const Params& params, State& state, const SettleOptions& opt
     }
     if (opt.cancel && opt.cancel()) break;
   }
-  for (auto& u : velocities(state)) u.setZero();
+  for (auto& u : velocities(mesh)) u.setZero();
   return r;
 }
 

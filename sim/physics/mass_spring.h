@@ -9,6 +9,12 @@
 // Parameters (Params) are a value apart from the state (State); step() advances the
 // state by dt. The state holds the mesh, whose properties (tissue_properties.h) are
 // kept current after every step, so the cutter and the renderer read the mesh.
+//
+// A mesh owned elsewhere (a cutting::CutEngine object, the GUI's scene) is stepped in
+// place: keep one Dynamics (everything a State has except the mesh) per mesh and call
+// step(params, dynamics, mesh, dt); State is Dynamics + mesh and every State overload
+// forwards to the in-place one, so both give bit-identical results. Topology edits
+// between steps are picked up through mesh.topologyVersion().
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -139,8 +145,8 @@ struct ActiveSet {
 };
 }  // namespace detail
 
-struct State {
-  mesh::SurfaceMesh mesh;  // positions and tissue properties
+// The solver's state apart from the mesh it moves.
+struct Dynamics {
   double time = 0.0;
   std::uint64_t steps = 0;
   StabilityLog stability;
@@ -159,6 +165,10 @@ struct State {
   }
 };
 
+struct State : Dynamics {
+  mesh::SurfaceMesh mesh;  // positions and tissue properties
+};
+
 // Builds a state from a mesh; attaches the tissue properties when they are missing.
 [[nodiscard]] State makeState(mesh::SurfaceMesh m, const TissueParams& p);
 
@@ -172,16 +182,24 @@ struct StepInfo {
 // Advances the state by dt with params.method, under the stability monitor.
 // The state never receives a non-finite value.
 StepInfo step(const Params& params, State& state, double dt);
+// The same on a mesh owned elsewhere (in place; the mesh needs the tissue properties).
+StepInfo step(const Params& params, Dynamics& dynamics, mesh::SurfaceMesh& mesh, double dt);
 
 // One raw step of `method` without the monitor (for analysis; may diverge).
 // Returns false when the result is not finite (the state is still updated).
 bool rawStep(const Params& params, State& state, Method method, double dt);
+bool rawStep(const Params& params, Dynamics& dynamics, mesh::SurfaceMesh& mesh, Method method, double dt);
 
+// The queries below refresh the dynamics' cache (derived data) when it is stale.
 [[nodiscard]] Energy energy(const Params& params, const State& state);
+[[nodiscard]] Energy energy(const Params& params, const Dynamics& dynamics, const mesh::SurfaceMesh& mesh);
 // Largest norm of the net static force (springs, home, gravity, external) on a vertex.
 [[nodiscard]] double maxResidualForce(const Params& params, const State& state);
+[[nodiscard]] double maxResidualForce(const Params& params, const Dynamics& dynamics, const mesh::SurfaceMesh& mesh);
 // Net force on every vertex slot (damping included), for tests and the oracle.
 [[nodiscard]] std::vector<Eigen::Vector3d> forces(const Params& params, const State& state);
+[[nodiscard]] std::vector<Eigen::Vector3d> forces(const Params& params, const Dynamics& dynamics,
+                                                  const mesh::SurfaceMesh& mesh);
 
 struct SettleOptions {
   double dt = 1e-3;
@@ -202,9 +220,11 @@ struct SettleResult {
 // Runs the dynamics until the residual force falls under the tolerance, then zeroes
 // the velocities (the thesis's start positions).
 SettleResult settle(const Params& params, State& state, const SettleOptions& opt = {});
+SettleResult settle(const Params& params, Dynamics& dynamics, mesh::SurfaceMesh& mesh, const SettleOptions& opt = {});
 
 // True when every position and velocity is finite.
 [[nodiscard]] bool isFinite(const State& state);
+[[nodiscard]] bool isFinite(const mesh::SurfaceMesh& mesh);
 
 // Sets flush-to-zero and denormals-are-zero for this thread while alive.
 class FlushDenormals {
