@@ -9,8 +9,8 @@
 #include <iostream>
 #include <limits>
 #include <numeric>
-#include <unordered_set>
 
+#include "sim/collision/bvh.h"
 #include "sim/collision/segment_triangle.h"
 #include "sim/cutting/mesh_checks.h"
 
@@ -44,10 +44,26 @@ double cpuNow() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+// Reading the thread CPU clock is a system call (~0.3-1 us): intervals as short as one
+// edit would mostly measure the clock. The cost of an empty interval is measured once
+// (smallest of many) and taken off every interval.
+double timerOverhead() {
+  static const double overhead = [] {
+    double best = 1e9;
+    for (int i = 0; i < 200; ++i) {
+      const double a = cpuNow();
+      const double b = cpuNow();
+      best = std::min(best, b - a);
+    }
+    return best;
+  }();
+  return overhead;
+}
+
 struct CpuTimer {
   double& acc;
   double t0 = cpuNow();
-  ~CpuTimer() { acc += cpuNow() - t0; }
+  ~CpuTimer() { acc += std::max(0.0, cpuNow() - t0 - timerOverhead()); }
 };
 
 // One crossing of a cutting edge with a surface in the current sample.
@@ -60,6 +76,50 @@ struct Hit {
   int dir = 0;  // +1: the edge (a->b) enters the material here, -1: leaves it
   Vec3 depth = Vec3::Zero();
   bool used = false;
+};
+
+// Set of vertex handles without a heap node per element (open addressing, linear
+// probing; a cut's path only grows): membership tests are on the walk's hot path.
+class VertexSet {
+ public:
+  [[nodiscard]] bool count(Vertex v) const {
+    if (slots_.empty() || !v.isValid()) return false;
+    for (std::size_t i = hash(v);; i = (i + 1) & mask()) {
+      if (slots_[i] == v.idx()) return true;
+      if (slots_[i] == kEmpty) return false;
+    }
+  }
+  void insert(Vertex v) {
+    if (!v.isValid()) return;
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    for (std::size_t i = hash(v);; i = (i + 1) & mask()) {
+      if (slots_[i] == v.idx()) return;
+      if (slots_[i] == kEmpty) {
+        slots_[i] = static_cast<std::uint32_t>(v.idx());
+        ++size_;
+        return;
+      }
+    }
+  }
+  template <class F>
+  void forEach(F&& f) const {
+    for (std::uint32_t x : slots_)
+      if (x != kEmpty) f(Vertex(x));
+  }
+
+ private:
+  static constexpr std::uint32_t kEmpty = 0xffffffffu;
+  [[nodiscard]] std::size_t mask() const { return slots_.size() - 1; }
+  [[nodiscard]] std::size_t hash(Vertex v) const { return (v.idx() * 0x9E3779B1u) & mask(); }
+  void grow() {
+    std::vector<std::uint32_t> old = std::move(slots_);
+    slots_.assign(std::max<std::size_t>(16, 2 * old.size()), kEmpty);
+    size_ = 0;
+    for (std::uint32_t x : old)
+      if (x != kEmpty) insert(Vertex(x));
+  }
+  std::vector<std::uint32_t> slots_;
+  std::size_t size_ = 0;
 };
 
 // One layer crossing followed through a stroke.
@@ -86,8 +146,11 @@ struct Track {
   bool hasPending = false;
   Vec3 pending = Vec3::Zero();
   Vec3 pendingDepth = Vec3::Zero();
-  int partner = -1;                    // track id of the other layer of a cut-through, or -1
-  std::unordered_set<Vertex> visited;  // path vertices, their copies and this cut's wall apexes
+  // A face around tip holding the pending point (checked first on the next sample:
+  // while the blade stays in it, a sample costs one point-in-triangle test).
+  Face pendingFace;
+  int partner = -1;   // track id of the other layer of a cut-through, or -1
+  VertexSet visited;  // path vertices, their copies and this cut's wall apexes
 };
 
 struct HandState {
@@ -116,6 +179,13 @@ struct CutEngine::Impl {
   CutParams p;
   std::vector<TissueObject> objects;
   std::vector<bool> hasTissue;
+  // One BVH per object (same index as objects): the cutter's own edits reach it by
+  // TriangleBvh::sync (local); moved vertices (physics, through object()) by a refit
+  // at the next sample; compacted meshes (separation) by a rebuild.
+  std::vector<collision::TriangleBvh> bvhs;
+  std::vector<char> moved;
+  std::vector<collision::SurfaceHit> scratchHits;
+  std::vector<Face> scratchFaces;
   int nextId = 0;
   int nextTrackId = 0;
   HandState hands[2];
@@ -197,7 +267,7 @@ struct CutEngine::Impl {
   }
 
   // The face containing P: the hint, the faces around its corners, else all faces.
-  Face locate(const SurfaceMesh& m, Face hint, const Vec3& P) const {
+  Face locate(const SurfaceMesh& m, Face hint, const Vec3& P) {
     if (m.isValid(hint) && pointInFace(m, hint, P)) return hint;
     if (m.isValid(hint)) {
       for (Vertex v : m.vertices(hint))
@@ -206,7 +276,19 @@ struct CutEngine::Impl {
     }
     Face best;
     double bestD = 1e-6 * scaleOf(P);
-    for (Face f : m.faces()) {
+    // Only faces whose box is near P (the object's BVH), never the whole mesh.
+    std::vector<Face> near;
+    for (std::size_t i = 0; i < objects.size(); ++i)
+      if (&objects[i].mesh == &m) {
+        syncBvh(i);
+        collision::Box box;
+        box.extend(P);
+        box.min.array() -= 1e-6 * scaleOf(P);
+        box.max.array() += 1e-6 * scaleOf(P);
+        bvhs[i].facesOverlapping(box, near);
+      }
+    for (Face f : near) {
+      if (!m.isValid(f)) continue;
       if (pointInFace(m, f, P)) return f;
       // Rounding may leave P a hair outside every face: take the closest one.
       const Vec3 b = barycentric(m, f, P);
@@ -323,9 +405,42 @@ struct CutEngine::Impl {
     return made;
   }
 
+  // The faces around x form one fan (walk across the edges at x from one face, no
+  // allocation): what the safety net checks around every edit.
+  static bool singleFan(const SurfaceMesh& m, Vertex x) {
+    const auto& es = m.edges(x);
+    if (es.empty()) return true;
+    int twice = 0;
+    Edge start = es.front();
+    for (Edge e : es) {
+      twice += (m.face(e, 0).isValid() ? 1 : 0) + (m.face(e, 1).isValid() ? 1 : 0);
+      if (m.isBoundary(e) && !m.isBoundary(start)) start = e;
+    }
+    const int total = twice / 2;
+    Face f = m.face(start, 0);
+    if (!f.isValid()) return total == 0;
+    Edge e = start;
+    int count = 0;
+    while (count <= total) {
+      ++count;
+      Edge next;
+      for (Edge g : m.edges(f))
+        if (g != e && (m.vertex(g, 0) == x || m.vertex(g, 1) == x)) {
+          next = g;
+          break;
+        }
+      if (!next.isValid() || next == start) break;
+      const Face g = m.otherFace(next, f);
+      if (!g.isValid()) break;
+      e = next;
+      f = g;
+    }
+    return count == total;
+  }
+
   void unpinch(int obj, Vertex x) {
     SurfaceMesh& m = meshOf(obj);
-    if (!m.isValid(x)) return;
+    if (!m.isValid(x) || singleFan(m, x)) return;
     const auto made = splitByGroups(obj, x, {});
     stats.unpinched += static_cast<long>(made.size());
   }
@@ -712,7 +827,10 @@ struct CutEngine::Impl {
       } else {
         if ((goal.point - pv).norm() <= 1e-9 * scaleOf(pv)) return true;
         for (Face f : around)
-          if (pointInFace(m, f, goal.point)) return true;
+          if (pointInFace(m, f, goal.point)) {
+            tr.pendingFace = f;
+            return true;
+          }
       }
       // Candidates: where the plane leaves the fan of v, ahead of v.
       struct Cand {
@@ -842,8 +960,28 @@ struct CutEngine::Impl {
     extend(tr, v, tr.startDepth);
   }
 
+  // The blade is still inside the triangle of the pending point: nothing to edit,
+  // the sample only moves the temporary point. Same outcome as advance() (whose walk
+  // stops at once), without touching the mesh.
+  bool advanceFast(Track& tr, const Hit& h) {
+    const SurfaceMesh& m = meshOf(tr.object);
+    if (!tr.tip.isValid()) {
+      if (!tr.hasStart || !m.isValid(tr.startFace) || !pointInFace(m, tr.startFace, tr.start) ||
+          !pointInFace(m, tr.startFace, h.point))
+        return false;
+    } else if (!m.isValid(tr.pendingFace) || m.localIndex(tr.pendingFace, tr.tip) < 0 ||
+               !pointInFace(m, tr.pendingFace, h.point)) {
+      return false;
+    }
+    tr.pending = h.point;
+    tr.pendingDepth = h.depth;
+    tr.hasPending = true;
+    return true;
+  }
+
   void advance(Track& tr, Hit& h, const Vec3& bladeDir) {
     SurfaceMesh& m0 = meshOf(tr.object);
+    tr.pendingFace = Face();
     if (!tr.tip.isValid()) {
       const Face f = locate(m0, tr.startFace, tr.start);
       if (f.isValid() && pointInFace(m0, f, h.point)) {
@@ -1145,7 +1283,7 @@ struct CutEngine::Impl {
           a.chain.push_back(sB);
           b.chain.assign(path.begin(), path.end());
         }
-        for (Vertex x : a.visited) b.visited.insert(x);
+        a.visited.forEach([&](Vertex x) { b.visited.insert(x); });
         return;
       }
       ++stats.walkFailures;
@@ -1223,26 +1361,33 @@ struct CutEngine::Impl {
       const bool t = hasTissue[static_cast<std::size_t>(idx)];
       objects.push_back(std::move(piece));
       hasTissue.push_back(t);
+      bvhs.emplace_back(objects.back().mesh);
+      moved.push_back(0);
       res->separated.push_back(objects.back().id);
       ++stats.separations;
     }
-    keepComponent(objects[static_cast<std::size_t>(indexOf(obj))].mesh, c, keep);
+    const std::size_t k = static_cast<std::size_t>(indexOf(obj));
+    keepComponent(objects[k].mesh, c, keep);
+    bvhs[k].build(objects[k].mesh);  // compacted: handles renumbered
   }
 
   // ---- samples ------------------------------------------------------------------------------------
-  double collisionSeconds = 0.0;   // time in collision queries during the current call
   double separationSeconds = 0.0;  // time splitting off freed pieces during the current call
 
+  void syncBvh(std::size_t i) {
+    const SurfaceMesh& m = objects[i].mesh;
+    collision::TriangleBvh& b = bvhs[i];
+    if (b.sync(m) != collision::SyncResult::Rebuilt && moved[i]) b.refit(m);
+    moved[i] = 0;
+  }
+
   std::vector<Hit> hitsOf(const Vec3& a, const Vec3& b, int segment) {
-    const auto t0 = std::chrono::steady_clock::now();
-    struct Timer {
-      double& acc;
-      std::chrono::steady_clock::time_point t0;
-      ~Timer() { acc += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
-    } timer{collisionSeconds, t0};
     std::vector<Hit> out;
-    for (const auto& o : objects) {
-      const auto hits = collision::intersectSegment(o.mesh, a, b);
+    for (std::size_t oi = 0; oi < objects.size(); ++oi) {
+      const auto& o = objects[oi];
+      syncBvh(oi);
+      bvhs[oi].intersectSegment(o.mesh, a, b, scratchHits);
+      const auto& hits = scratchHits;
       std::vector<Hit> mine;
       for (const auto& h : hits) {
         if (h.kind == collision::HitKind::Coplanar || h.direction == 0) continue;
@@ -1269,17 +1414,23 @@ struct CutEngine::Impl {
     return out;
   }
 
+  std::vector<Vertex> pinchedScratch;
+  std::vector<std::pair<int, Vertex>> dirtyWork;
   // Safety net: no vertex around an edit may join two fans.
   void fixPinches() {
-    auto work = std::move(dirty);
-    dirty.clear();
-    for (const auto& [obj, v] : work) {
+    dirtyWork.clear();
+    std::swap(dirtyWork, dirty);  // both keep their capacity
+    for (const auto& [obj, v] : dirtyWork) {
       if (indexOf(obj) < 0) continue;
       SurfaceMesh& m = meshOf(obj);
       if (!m.isValid(v)) continue;
-      std::vector<Vertex> ring{v};
-      for (Edge e : m.edges(v)) ring.push_back(m.otherVertex(e, v));
-      for (Vertex x : ring) unpinch(obj, x);
+      pinchedScratch.clear();
+      if (!singleFan(m, v)) pinchedScratch.push_back(v);
+      for (Edge e : m.edges(v)) {
+        const Vertex x = m.otherVertex(e, v);
+        if (!singleFan(m, x)) pinchedScratch.push_back(x);
+      }
+      for (Vertex x : pinchedScratch) unpinch(obj, x);
     }
   }
 
@@ -1294,10 +1445,18 @@ struct CutEngine::Impl {
     const auto segs = instruments::segments(tool, pose, p.tool);
     const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
     std::vector<Hit> hits;
+    std::vector<std::vector<Hit>> segHits(segs.size());
+    if (cuts || report) {
+      CpuTimer timer{stats.collisionSeconds};
+      for (std::size_t s = 0; s < segs.size(); ++s) {
+        segHits[s] = hitsOf(segs[s].a, segs[s].b, static_cast<int>(s));
+        ++stats.collisionQueries;
+      }
+    }
     for (std::size_t s = 0; s < segs.size(); ++s) {
       const auto& sg = segs[s];
       if (!cuts && !report) continue;
-      auto h = hitsOf(sg.a, sg.b, static_cast<int>(s));
+      const std::vector<Hit>& h = segHits[s];
       if (report)
         for (const auto& x : h) {
           Contact c;
@@ -1360,6 +1519,7 @@ struct CutEngine::Impl {
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
+      if (advanceFast(t, hits[static_cast<std::size_t>(matchOf[ti])])) continue;
       {
         CpuTimer timer{stats.remeshSeconds};
         advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));
@@ -1416,7 +1576,7 @@ struct CutEngine::Impl {
     checkSeparation.clear();
     std::sort(objs.begin(), objs.end());
     objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
-    {
+    if (!dirty.empty()) {
       CpuTimer timer{stats.remeshSeconds};
       fixPinches();
     }
@@ -1469,7 +1629,6 @@ struct CutEngine::Impl {
     res = &r;
     const Counts before = counts();
     const std::uint64_t v0 = versionSum();
-    collisionSeconds = 0.0;
     separationSeconds = 0.0;
     body();
     const Counts after = counts();
@@ -1490,6 +1649,7 @@ CutEngine::CutEngine(CutParams params) : impl_(std::make_unique<Impl>()) {
       !(params.grooveSpacing >= 0.0))
     throw CutError("CutParams out of range");
   impl_->p = params;
+  (void)timerOverhead();  // calibrated before the first interval
 }
 CutEngine::~CutEngine() = default;
 CutEngine::CutEngine(CutEngine&&) noexcept = default;
@@ -1504,6 +1664,8 @@ int CutEngine::addObject(mesh::SurfaceMesh m) {
   o.mesh.vertexProperty<std::uint8_t>(kApexProp, 0);
   impl_->hasTissue.push_back(physics::hasTissueProperties(o.mesh));
   impl_->objects.push_back(std::move(o));
+  impl_->bvhs.emplace_back(impl_->objects.back().mesh);
+  impl_->moved.push_back(0);
   return impl_->objects.back().id;
 }
 
@@ -1512,6 +1674,8 @@ const std::vector<TissueObject>& CutEngine::objects() const { return impl_->obje
 TissueObject& CutEngine::object(int id) {
   const int i = impl_->indexOf(id);
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  // The caller may move vertices: the object's BVH is refitted before the next query.
+  impl_->moved[static_cast<std::size_t>(i)] = 1;
   return impl_->objects[static_cast<std::size_t>(i)];
 }
 

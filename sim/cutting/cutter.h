@@ -114,6 +114,8 @@ struct CutStats {
   long unpinched = 0;              // pinched vertices split (safety net)
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
   double separationSeconds = 0.0;  // time splitting freed pieces into objects (O(mesh size), rare)
+  double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)
+  long collisionQueries = 0;       // segment queries (one per cutting edge per sub-sample)
   [[nodiscard]] double remeshMicrosPerCutTriangle() const {
     return trianglesCut > 0 ? remeshSeconds * 1e6 / static_cast<double>(trianglesCut) : 0.0;
   }
