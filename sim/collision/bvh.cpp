@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -10,86 +11,271 @@ namespace ld::collision {
 
 using Eigen::Vector3d;
 using mesh::Face;
+using mesh::Vertex;
 
 namespace {
 
-constexpr std::size_t kStack = 96;  // > kMaxDepth + 1: DFS pushes at most one extra node per level
-
-double halfArea(const Box& b) {
-  if (b.empty()) return 0.0;
-  const Vector3d e = b.max - b.min;
-  return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
-}
+constexpr std::size_t kStack = 128;         // > deepest tree (build caps SAH depth, local splits cap at kMaxDepth)
+constexpr std::size_t kSahDepthLimit = 48;  // below this depth the build splits at the median (log depth)
+constexpr int kBins = 12;
+constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Outward rounding to float without libm calls: step away by at least one float
 // ulp (2^-23 relative) before rounding to nearest.
 float roundDown(double x) { return static_cast<float>(x - (std::abs(x) * 1.2e-7 + 1e-30)); }
 float roundUp(double x) { return static_cast<float>(x + (std::abs(x) * 1.2e-7 + 1e-30)); }
 
-}  // namespace
+double maxAbs(const Vector3d& p) { return p.cwiseAbs().maxCoeff(); }
 
-std::int32_t TriangleBvh::newNode(std::int32_t parent) {
-  nodes_.emplace_back();
-  nodes_.back().parent = parent;
-  HotNode h{};
-  for (int k = 0; k < 3; ++k) {
-    h.lo[k] = std::numeric_limits<float>::infinity();
-    h.hi[k] = -std::numeric_limits<float>::infinity();
+// False only when intersectSegmentTriangle(a, b, p0, p1, p2, tol) certainly reports
+// no hit: both ends clearly on one side of the plane, or a clear crossing clearly
+// outside an edge. It repeats the exact test's first steps (same expressions, so the
+// same roundings) and compares squares with a margin instead of taking roots;
+// everything else goes to the exact test, so results stay bit-identical.
+inline bool mayHit(const Vector3d& a, const Vector3d& b, double segScale, const Vector3d& p0, const Vector3d& p1,
+                   const Vector3d& p2, const Tolerance& tol) {
+  const double scale = std::max({segScale, maxAbs(p0), maxAbs(p1), maxAbs(p2)});
+  const double eps = effectiveTolerance(tol, scale);
+  const Vector3d e0 = p1 - p0, e1 = p2 - p1, e2 = p0 - p2;
+  const Vector3d n = e0.cross(-e2);
+  const double nn = n.squaredNorm();
+  const double H0 = n.dot(a - p0), H1 = n.dot(b - p0);
+  // |H| > eps |n| (the exact test's lim), with a relative margin for its roundings.
+  const double lim2 = eps * eps * nn * (1.0 + 1e-9);
+  const bool far0 = H0 * H0 > lim2, far1 = H1 * H1 > lim2;
+  if (far0 && far1 && (H0 > 0) == (H1 > 0)) return false;
+  if (!(far0 && far1)) return true;  // an end near the plane (or NaN): exact test
+  // A clear crossing: the only possible contact is where the line meets the plane.
+  const Vector3d q = a + (H0 / (H0 - H1)) * (b - a);
+  // Unnormalised in-plane distance to edge i: (n x e_i).(q - c_i) = s_i |n| |e_i|.
+  // Miss when some s_i < -(eps + margin); the margin covers the difference between
+  // this crossing point and the exact test's (a few ulps of the coordinates).
+  const double thr = eps + 1e-13 * (scale + 1.0);
+  const double thr2 = thr * thr * nn * (1.0 + 1e-9);
+  const Vector3d* c[3] = {&p0, &p1, &p2};
+  const Vector3d* e[3] = {&e0, &e1, &e2};
+  for (int i = 0; i < 3; ++i) {
+    const double w = n.cross(*e[i]).dot(q - *c[i]);
+    if (w < 0 && w * w > thr2 * e[i]->squaredNorm()) return false;
   }
-  h.child[0] = h.child[1] = -1;
-  hot_.push_back(h);
-  return static_cast<std::int32_t>(nodes_.size() - 1);
+  return true;
 }
 
-void TriangleBvh::fitLeaf(const mesh::SurfaceMesh& m, std::size_t i) {
-  const Node& n = nodes_[i];
-  HotNode& h = hot_[i];
-  h.child[0] = n.child[0];
-  h.child[1] = n.child[1];
+// The exact test's answer as a SurfaceHit, as intersectSegmentFace builds it.
+SurfaceHit toHit(const mesh::SurfaceMesh& m, Face f, const std::array<Vertex, 3>& vs, const SegTriResult& r) {
+  SurfaceHit h;
+  h.face = f;
+  h.kind = r.kind;
+  h.local = r.local;
+  if (r.kind == HitKind::OnEdge) h.edge = m.edges(f)[static_cast<std::size_t>(r.local)];
+  if (r.kind == HitKind::OnVertex) h.vertex = vs[static_cast<std::size_t>(r.local)];
+  h.t = r.t;
+  h.tExit = r.tExit;
+  h.bary = r.bary;
+  h.point = r.point;
+  h.direction = r.direction;
+  h.endTouch = r.endTouch;
+  return h;
+}
+
+// Segment a->b against boxes: slab test with the inverse direction precomputed and
+// the near/far planes chosen by its signs. An axis the segment does not move along
+// has inv = +-inf: the products are +-inf (outside) or NaN (on the plane), and NaN
+// never tightens the interval, so the test stays conservative without branches.
+struct SegmentSlab {
+  double a[3], inv[3];
+  bool neg[3];
+  double grow = 0.0;  // extra growth when the segment's tolerance exceeds the boxes' pad
+  SegmentSlab(const Vector3d& pa, const Vector3d& pb, double g) : grow(g) {
+    for (int k = 0; k < 3; ++k) {
+      a[k] = pa[k];
+      inv[k] = 1.0 / (pb[k] - pa[k]);
+      neg[k] = std::signbit(inv[k]);
+    }
+  }
+  // Entry parameter in [0, 1], or +inf when the segment misses the box.
+  template <bool Grow>
+  [[nodiscard]] double enter(const float* lo, const float* hi) const {
+    double t0 = 0.0, t1 = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      double l = lo[k], h = hi[k];
+      if constexpr (Grow) {
+        l -= grow;
+        h += grow;
+      }
+      const double tn = ((neg[k] ? h : l) - a[k]) * inv[k], tf = ((neg[k] ? l : h) - a[k]) * inv[k];
+      t0 = tn > t0 ? tn : t0;
+      t1 = tf < t1 ? tf : t1;
+    }
+    return t0 <= t1 ? t0 : std::numeric_limits<double>::infinity();
+  }
+};
+
+}  // namespace
+
+// ---- traversal ----------------------------------------------------------------
+
+// The one depth-first walk every query uses. test(node) -> bool; visit(leaf node)
+// -> bool (true stops the walk).
+template <class NodeTest, class LeafVisit>
+void TriangleBvh::traverse(NodeTest&& test, LeafVisit&& visit) const {
+  if (nodes_.empty()) return;
+  std::array<std::uint32_t, kStack> stack;
+  std::size_t top = 0;
+  std::uint32_t i = 0;
+  for (;;) {
+    const Node& n = nodes_[i];
+    if (test(n)) {
+      if (!n.leaf()) {
+        stack[top++] = n.index + 1;
+        i = n.index;
+        continue;
+      }
+      if (visit(n)) return;
+    }
+    if (top == 0) return;
+    i = stack[--top];
+  }
+}
+
+// Near-to-far: enter(node) -> entry parameter (+inf: miss); visit(leaf) -> the
+// bound beyond which nodes are skipped (may shrink as hits are found).
+template <class NodeTest, class LeafVisit>
+void TriangleBvh::traverseOrdered(NodeTest&& enter, LeafVisit&& visit) const {
+  if (nodes_.empty()) return;
+  struct Item {
+    std::uint32_t node;
+    double t;
+  };
+  std::array<Item, kStack> stack;
+  std::size_t top = 0;
+  double bound = std::numeric_limits<double>::infinity();
+  const double t0 = enter(nodes_[0]);
+  if (t0 == std::numeric_limits<double>::infinity()) return;
+  stack[top++] = {0, t0};
+  while (top > 0) {
+    const Item it = stack[--top];
+    if (it.t > bound) continue;
+    const Node& n = nodes_[it.node];
+    if (n.leaf()) {
+      bound = std::min(bound, visit(n));
+      continue;
+    }
+    const double tl = enter(nodes_[n.index]), tr = enter(nodes_[n.index + 1]);
+    const bool leftFirst = tl <= tr;
+    const Item nearI{leftFirst ? n.index : n.index + 1, leftFirst ? tl : tr};
+    const Item farI{leftFirst ? n.index + 1 : n.index, leftFirst ? tr : tl};
+    if (farI.t <= bound) stack[top++] = farI;
+    if (nearI.t <= bound) stack[top++] = nearI;
+  }
+}
+
+// ---- storage --------------------------------------------------------------------
+
+TriangleBvh::Node TriangleBvh::emptyNode() {
+  Node n{};
+  for (int k = 0; k < 3; ++k) {
+    n.lo[k] = kInf;
+    n.hi[k] = -kInf;
+  }
+  return n;
+}
+
+std::uint32_t TriangleBvh::newPair(std::uint32_t parent) {
+  const auto i = static_cast<std::uint32_t>(nodes_.size());
+  nodes_.push_back(emptyNode());
+  nodes_.push_back(emptyNode());
+  parent_.push_back(parent);
+  parent_.push_back(parent);
+  return i;
+}
+
+std::uint32_t TriangleBvh::newBlock(std::uint32_t leaf) {
+  blocks_.emplace_back();
+  blockLeaf_.push_back(leaf);
+  return static_cast<std::uint32_t>(blocks_.size() - 1);
+}
+
+void TriangleBvh::makeLeaf(std::uint32_t node, const std::uint32_t* faces, std::size_t count,
+                           const mesh::SurfaceMesh& m) {
+  const std::uint32_t b = newBlock(node);
+  Block& blk = blocks_[b];
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto& vs = m.vertices(Face(faces[i]));
+    blk.tri[i] = {faces[i], {vs[0].idx(), vs[1].idx(), vs[2].idx()}};
+    faceSlot_[faces[i]] = b * kLeafCapacity + static_cast<std::uint32_t>(i);
+  }
+  nodes_[node].index = b;
+  nodes_[node].count = static_cast<std::uint32_t>(count);
+}
+
+void TriangleBvh::fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i) {
+  Node& n = nodes_[i];
   if (n.count == 0) {
     for (int k = 0; k < 3; ++k) {
-      h.lo[k] = std::numeric_limits<float>::infinity();
-      h.hi[k] = -std::numeric_limits<float>::infinity();
+      n.lo[k] = kInf;
+      n.hi[k] = -kInf;
     }
     return;
   }
-  Box b;
-  for (std::int32_t j = 0; j < n.count; ++j)
-    for (mesh::Vertex v : m.vertices(Face(n.faces[j]))) b.extend(m.position(v));
+  const Vector3d* P = m.positions().data();
+  const Block& blk = blocks_[n.index];
+  // Per-triangle boxes first, then their union: short dependency chains, so the
+  // loads of several triangles overlap.
+  Eigen::Array3d tlo[kLeafCapacity], thi[kLeafCapacity];
+  for (std::uint32_t j = 0; j < n.count; ++j) {
+    const Eigen::Array3d p0 = P[blk.tri[j].v[0]].array(), p1 = P[blk.tri[j].v[1]].array(),
+                         p2 = P[blk.tri[j].v[2]].array();
+    tlo[j] = p0.min(p1).min(p2);
+    thi[j] = p0.max(p1).max(p2);
+  }
+  for (std::uint32_t j = n.count; j < static_cast<std::uint32_t>(kLeafCapacity); ++j) {
+    tlo[j] = tlo[0];
+    thi[j] = thi[0];
+  }
+  const Eigen::Array3d lo = tlo[0].min(tlo[1]).min(tlo[2].min(tlo[3]));
+  const Eigen::Array3d hi = thi[0].max(thi[1]).max(thi[2].max(thi[3]));
   for (int k = 0; k < 3; ++k) {
-    h.lo[k] = roundDown(b.min[k]);
-    h.hi[k] = roundUp(b.max[k]);
+    n.lo[k] = roundDown(lo[k] - pad_);
+    n.hi[k] = roundUp(hi[k] + pad_);
   }
 }
 
-void TriangleBvh::fitInner(std::size_t i) {
-  const Node& n = nodes_[i];
-  HotNode& h = hot_[i];
-  const HotNode& l = hot_[static_cast<std::size_t>(n.child[0])];
-  const HotNode& r = hot_[static_cast<std::size_t>(n.child[1])];
+void TriangleBvh::fitInner(std::uint32_t i) {
+  Node& n = nodes_[i];
+  const Node& l = nodes_[n.index];
+  const Node& r = nodes_[n.index + 1];
   for (int k = 0; k < 3; ++k) {
-    h.lo[k] = std::min(l.lo[k], r.lo[k]);
-    h.hi[k] = std::max(l.hi[k], r.hi[k]);
+    n.lo[k] = std::min(l.lo[k], r.lo[k]);
+    n.hi[k] = std::max(l.hi[k], r.hi[k]);
   }
-  h.child[0] = n.child[0];
-  h.child[1] = n.child[1];
 }
 
 Box TriangleBvh::boxOf(std::size_t i) const {
-  const HotNode& h = hot_[i];
+  const Node& n = nodes_[i];
   Box b;
-  if (!(h.lo[0] <= h.hi[0])) return b;
-  b.min = Vector3d(h.lo[0], h.lo[1], h.lo[2]);
-  b.max = Vector3d(h.hi[0], h.hi[1], h.hi[2]);
+  if (!(n.lo[0] <= n.hi[0])) return b;
+  b.min = Vector3d(n.lo[0], n.lo[1], n.lo[2]);
+  b.max = Vector3d(n.hi[0], n.hi[1], n.hi[2]);
   return b;
 }
 
-double TriangleBvh::effectivePad(const mesh::SurfaceMesh& m, const Tolerance& tol) {
-  double scale = 0.0;
-  for (mesh::Vertex v : m.vertices()) scale = std::max(scale, m.position(v).cwiseAbs().maxCoeff());
-  // Twice the tolerance at the mesh's scale: the segment test grows the triangle by
-  // at most its own tolerance, which is computed from the same coordinates.
-  return 2.0 * effectiveTolerance(tol, scale) + 1e-300;
+double TriangleBvh::effectivePad(double scale, const Tolerance& tol) {
+  // The exact test accepts points up to eps outside every edge line, which near a
+  // sharp corner reaches eps / sin(angle / 2) from it: 1024 eps covers corners down
+  // to about 0.1 degree (thinner slivers are degenerate for the cutter anyway) and
+  // is still nanometres at millimetre scale.
+  return 1024.0 * effectiveTolerance(tol, scale) + 1e-300;
+}
+
+double TriangleBvh::queryGrow(const Vector3d& a, const Vector3d& b) const {
+  // Boxes carry pad_ for coordinates up to padScale_; a segment (or a mesh moved)
+  // far beyond that needs a larger pad at query time.
+  const Box root = bounds();
+  const double rootScale = root.empty() ? 0.0 : std::max(maxAbs(root.min), maxAbs(root.max));
+  const double scale = std::max({maxAbs(a), maxAbs(b), rootScale});
+  if (scale <= padScale_) return 0.0;
+  return std::max(0.0, effectivePad(scale, tol_) - pad_);
 }
 
 void TriangleBvh::checkMesh(const mesh::SurfaceMesh& m, const char* where) const {
@@ -101,83 +287,190 @@ void TriangleBvh::checkMesh(const mesh::SurfaceMesh& m, const char* where) const
                          ": mesh is smaller than the tree's (another mesh, or compacted without sync())");
 }
 
+// ---- build ----------------------------------------------------------------------
+
+struct TriangleBvh::BuildItem {
+  float lo[3], hi[3], c[3];
+  std::uint32_t face;
+};
+
+namespace {
+
+struct BinBox {
+  float lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+  void extend(const float* l, const float* h) {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], l[k]);
+      hi[k] = std::max(hi[k], h[k]);
+    }
+  }
+  [[nodiscard]] double halfArea() const {
+    if (!(lo[0] <= hi[0])) return 0.0;
+    const double x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+    return x * y + y * z + z * x;
+  }
+};
+
+double halfArea(const Box& b) {
+  if (b.empty()) return 0.0;
+  const Vector3d e = b.max - b.min;
+  return e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
+}
+
+}  // namespace
+
+void TriangleBvh::buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last,
+                            std::size_t depth) {
+  maxDepth_ = std::max(maxDepth_, depth);
+  const std::ptrdiff_t n = last - first;
+  if (n <= kBuildLeafSize) {
+    std::array<std::uint32_t, kLeafCapacity> faces{};
+    for (std::ptrdiff_t i = 0; i < n; ++i) faces[static_cast<std::size_t>(i)] = first[i].face;
+    makeLeaf(node, faces.data(), static_cast<std::size_t>(n), m);
+    return;
+  }
+  float clo[3] = {kInf, kInf, kInf}, chi[3] = {-kInf, -kInf, -kInf};
+  for (auto* p = first; p != last; ++p)
+    for (int k = 0; k < 3; ++k) {
+      clo[k] = std::min(clo[k], p->c[k]);
+      chi[k] = std::max(chi[k], p->c[k]);
+    }
+  int bestAxis = -1, bestSplit = 0;
+  double bestCost = std::numeric_limits<double>::infinity();
+  if (depth < kSahDepthLimit) {
+    // Binned SAH over the three axes: cost nL A(L) + nR A(R) (the constant terms do
+    // not change which split is best).
+    for (int k = 0; k < 3; ++k) {
+      const float ext = chi[k] - clo[k];
+      if (!(ext > 0)) continue;
+      const float scale = static_cast<float>(kBins) / ext;
+      BinBox bins[kBins];
+      std::size_t count[kBins] = {};
+      for (auto* p = first; p != last; ++p) {
+        const int bi = std::min(kBins - 1, static_cast<int>((p->c[k] - clo[k]) * scale));
+        bins[bi].extend(p->lo, p->hi);
+        ++count[bi];
+      }
+      double rightArea[kBins];
+      std::size_t rightCount[kBins];
+      BinBox acc;
+      std::size_t cnt = 0;
+      for (int i = kBins - 1; i > 0; --i) {
+        acc.extend(bins[i].lo, bins[i].hi);
+        cnt += count[i];
+        rightArea[i] = acc.halfArea();
+        rightCount[i] = cnt;
+      }
+      BinBox left;
+      std::size_t lc = 0;
+      for (int i = 1; i < kBins; ++i) {  // split before bin i
+        left.extend(bins[i - 1].lo, bins[i - 1].hi);
+        lc += count[i - 1];
+        if (lc == 0 || rightCount[i] == 0) continue;
+        const double cost =
+            static_cast<double>(lc) * left.halfArea() + static_cast<double>(rightCount[i]) * rightArea[i];
+        if (cost < bestCost) {
+          bestCost = cost;
+          bestAxis = k;
+          bestSplit = i;
+        }
+      }
+    }
+  }
+  BuildItem* mid = nullptr;
+  if (bestAxis >= 0) {
+    const int k = bestAxis;
+    const float scale = static_cast<float>(kBins) / (chi[k] - clo[k]);
+    mid = std::partition(first, last, [&](const BuildItem& it) {
+      return std::min(kBins - 1, static_cast<int>((it.c[k] - clo[k]) * scale)) < bestSplit;
+    });
+  }
+  if (mid == nullptr || mid == first || mid == last) {
+    // Median on the widest centroid axis (also for identical centroids).
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (chi[k] - clo[k] > chi[axis] - clo[axis]) axis = k;
+    mid = first + n / 2;
+    std::nth_element(first, mid, last,
+                     [axis](const BuildItem& x, const BuildItem& y) { return x.c[axis] < y.c[axis]; });
+  }
+  const std::uint32_t c = newPair(node);
+  nodes_[node].index = c;
+  nodes_[node].count = kInner;
+  buildNode(m, c, first, mid, depth + 1);
+  buildNode(m, c + 1, mid, last, depth + 1);
+}
+
 void TriangleBvh::build(const mesh::SurfaceMesh& m) {
   nodes_.clear();
-  faceLeaf_.assign(m.facesSize(), -1);
-  std::vector<std::uint32_t> faces;
-  faces.reserve(m.nFaces());
-  std::vector<Vector3d> centroid(m.facesSize());
+  parent_.clear();
+  blocks_.clear();
+  blockLeaf_.clear();
+  faceSlot_.assign(m.facesSize(), kNone);
+  std::vector<BuildItem> items;
+  items.reserve(m.nFaces());
+  double scale = 0.0;
+  const Vector3d* P = m.positions().data();
   for (Face f : m.faces()) {
-    faces.push_back(f.idx());
     const auto& vs = m.vertices(f);
-    centroid[f.idx()] = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
+    BuildItem it{};
+    it.face = f.idx();
+    Vector3d lo = P[vs[0].idx()], hi = lo;
+    for (int c = 1; c < 3; ++c) {
+      lo = lo.cwiseMin(P[vs[c].idx()]);
+      hi = hi.cwiseMax(P[vs[c].idx()]);
+    }
+    for (int k = 0; k < 3; ++k) {
+      it.lo[k] = static_cast<float>(lo[k]);
+      it.hi[k] = static_cast<float>(hi[k]);
+      it.c[k] = static_cast<float>(0.5 * (lo[k] + hi[k]));
+    }
+    scale = std::max({scale, maxAbs(lo), maxAbs(hi)});
+    items.push_back(it);
   }
-  hot_.clear();
-  nodes_.reserve(2 * faces.size() / kBuildLeafSize + 2);
-  hot_.reserve(nodes_.capacity());
+  // Headroom: the tissue may move and stretch before the next build.
+  padScale_ = 2.0 * scale;
+  pad_ = effectivePad(padScale_, tol_);
+  nodes_.reserve(2 * items.size() / 2 + 2);
+  parent_.reserve(nodes_.capacity());
+  blocks_.reserve(items.size() / 2 + 1);
+  blockLeaf_.reserve(blocks_.capacity());
   maxDepth_ = 0;
-  if (faces.empty()) {
-    newNode(-1);  // an empty root leaf keeps every path simple
-  } else {
-    buildRange(m, faces.data(), faces.data() + faces.size(), centroid, -1, 0);
-  }
-  tracked_ = faces.size();
-  pad_ = effectivePad(m, tol_);
+  nodes_.push_back(emptyNode());
+  parent_.push_back(kNone);
+  buildNode(m, 0, items.data(), items.data() + items.size(), 0);
+  tracked_ = items.size();
   editsSinceBuild_ = 0;
-  facesAtBuild_ = faces.size();
+  facesAtBuild_ = items.size();
   ++builds_;
   needsRebuild_ = false;
   built_ = true;
   remember(m);
-}
-
-std::int32_t TriangleBvh::buildRange(const mesh::SurfaceMesh& m, std::uint32_t* first, std::uint32_t* last,
-                                     std::vector<Vector3d>& centroid, std::int32_t parent, std::size_t depth) {
-  const std::int32_t index = newNode(parent);
-  maxDepth_ = std::max(maxDepth_, depth);
-  const std::ptrdiff_t n = last - first;
-  if (n <= kBuildLeafSize) {
-    Node& node = nodes_[static_cast<std::size_t>(index)];
-    node.count = static_cast<std::int32_t>(n);
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-      node.faces[i] = first[i];
-      faceLeaf_[first[i]] = index;
-    }
-    fitLeaf(m, static_cast<std::size_t>(index));
-    return index;
-  }
-  Box cb;
-  for (auto* p = first; p != last; ++p) cb.extend(centroid[*p]);
-  int axis = 0;
-  (cb.max - cb.min).maxCoeff(&axis);
-  auto* mid = first + n / 2;
-  std::nth_element(first, mid, last,
-                   [&](std::uint32_t x, std::uint32_t y) { return centroid[x][axis] < centroid[y][axis]; });
-  const std::int32_t l = buildRange(m, first, mid, centroid, index, depth + 1);
-  const std::int32_t r = buildRange(m, mid, last, centroid, index, depth + 1);
-  Node& node = nodes_[static_cast<std::size_t>(index)];
-  node.child[0] = l;
-  node.child[1] = r;
-  fitInner(static_cast<std::size_t>(index));
-  return index;
+  refit(m);
 }
 
 void TriangleBvh::remember(const mesh::SurfaceMesh& m) {
   seenVersion_ = m.topologyVersion();
+  seenLayout_ = m.layoutVersion();
+  seenJournal_ = m.editedFaces().size();
   seenFaces_ = m.facesSize();
   seenVertices_ = m.verticesSize();
-  seenDeletedFaces_ = m.facesSize() - m.nFaces();
-  if (faceLeaf_.size() < m.facesSize()) faceLeaf_.resize(m.facesSize(), -1);
+  if (faceSlot_.size() < m.facesSize()) faceSlot_.resize(m.facesSize(), kNone);
 }
+
+// ---- refit ----------------------------------------------------------------------
 
 void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   checkMesh(m, "refit");
-  // Children always have larger indices than their parent (build is preorder, local
-  // splits append), so one backward pass is bottom-up.
-  for (std::size_t i = nodes_.size(); i-- > 0;) fit(m, i);
+  // Leaves first, in block order (the blocks are read sequentially), then the inner
+  // nodes in one backward pass: children always have larger indices than their
+  // parent (pairs are appended after the parent exists).
+  for (std::uint32_t leaf : blockLeaf_) fitLeaf(m, leaf);
+  for (std::size_t i = nodes_.size(); i-- > 0;)
+    if (!nodes_[i].leaf()) fitInner(static_cast<std::uint32_t>(i));
 }
 
-void TriangleBvh::refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int32_t>& dirty) {
+void TriangleBvh::refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::uint32_t>& dirty) {
   if (dirty.empty()) return;
   // Collect each dirty node and its ancestors once (stop at an ancestor already
   // collected), then fit from the highest index down: children come after parents.
@@ -186,127 +479,132 @@ void TriangleBvh::refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int3
     std::fill(mark_.begin(), mark_.end(), 0);
     epoch_ = 1;
   }
-  std::vector<std::int32_t> order;
-  order.reserve(dirty.size() * 4);
-  for (std::int32_t i : dirty) {
-    while (i >= 0 && mark_[static_cast<std::size_t>(i)] != epoch_) {
-      mark_[static_cast<std::size_t>(i)] = epoch_;
-      order.push_back(i);
-      i = nodes_[static_cast<std::size_t>(i)].parent;
+  scratch_.clear();
+  for (std::uint32_t i : dirty) {
+    while (i != kNone && mark_[i] != epoch_) {
+      mark_[i] = epoch_;
+      scratch_.push_back(i);
+      i = parent_[i];
     }
   }
   dirty.clear();
-  std::sort(order.begin(), order.end(), std::greater<>());
-  for (std::int32_t i : order) fit(m, static_cast<std::size_t>(i));
+  std::sort(scratch_.begin(), scratch_.end(), std::greater<>());
+  for (std::uint32_t i : scratch_) fit(m, i);
+}
+
+void TriangleBvh::reread(const mesh::SurfaceMesh& m, Face f) {
+  const std::uint32_t s = faceSlot_[f.idx()];
+  TriRef& r = blocks_[s / kLeafCapacity].tri[s % kLeafCapacity];
+  const auto& vs = m.vertices(f);
+  for (int c = 0; c < 3; ++c) r.v[c] = vs[static_cast<std::size_t>(c)].idx();
 }
 
 void TriangleBvh::refitFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
   checkMesh(m, "refitFaces");
-  std::vector<std::int32_t> dirty;
-  dirty.reserve(faces.size());
+  dirty_.clear();
   for (Face f : faces)
-    if (tracks(f)) dirty.push_back(faceLeaf_[f.idx()]);
-  refitUpwards(m, dirty);
+    if (tracks(f) && m.isValid(f)) {
+      reread(m, f);
+      dirty_.push_back(leafOf(f));
+    }
+  refitUpwards(m, dirty_);
 }
 
-void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const mesh::Vertex> moved) {
+void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const Vertex> moved) {
   checkMesh(m, "refitVertices");
-  std::vector<std::int32_t> dirty;
-  for (mesh::Vertex v : moved) {
+  dirty_.clear();
+  for (Vertex v : moved) {
     if (!m.isValid(v)) continue;
     for (mesh::Edge e : m.edges(v))
       for (int k = 0; k < 2; ++k) {
         const Face f = m.face(e, k);
-        if (f.isValid() && tracks(f)) dirty.push_back(faceLeaf_[f.idx()]);
+        if (f.isValid() && tracks(f)) dirty_.push_back(leafOf(f));
       }
   }
-  refitUpwards(m, dirty);
+  refitUpwards(m, dirty_);
 }
 
-std::size_t TriangleBvh::depthOf(std::int32_t node) const {
+// ---- local topology updates -----------------------------------------------------
+
+std::size_t TriangleBvh::depthOf(std::uint32_t node) const {
   std::size_t d = 0;
-  while (nodes_[static_cast<std::size_t>(node)].parent >= 0) {
-    node = nodes_[static_cast<std::size_t>(node)].parent;
+  while (parent_[node] != kNone) {
+    node = parent_[node];
     ++d;
   }
   return d;
 }
 
-std::int32_t TriangleBvh::chooseLeaf(const mesh::SurfaceMesh& m, Face f) const {
+std::uint32_t TriangleBvh::chooseLeaf(const mesh::SurfaceMesh& m, Face f) const {
   // The cheap, local answer: the leaf of a neighbour across an edge (cutting makes
-  // new faces inside or next to the face it splits).
-  std::int32_t best = -1;
+  // new faces inside or next to the face it splits), preferring one with room.
+  std::uint32_t best = kNone;
   for (mesh::Edge e : m.edges(f)) {
     const Face g = m.otherFace(e, f);
     if (g.isValid() && tracks(g)) {
-      const std::int32_t leaf = faceLeaf_[g.idx()];
-      if (best < 0 || nodes_[static_cast<std::size_t>(leaf)].count < nodes_[static_cast<std::size_t>(best)].count)
-        best = leaf;
+      const std::uint32_t leaf = leafOf(g);
+      if (best == kNone || nodes_[leaf].count < nodes_[best].count) best = leaf;
     }
   }
-  if (best >= 0) return best;
+  if (best != kNone) return best;
   // Otherwise descend by least growth of surface area.
   Box fb;
-  for (mesh::Vertex v : m.vertices(f)) fb.extend(m.position(v));
-  std::int32_t i = 0;
-  while (!nodes_[static_cast<std::size_t>(i)].leaf()) {
-    const Node& n = nodes_[static_cast<std::size_t>(i)];
+  for (Vertex v : m.vertices(f)) fb.extend(m.position(v));
+  std::uint32_t i = 0;
+  while (!nodes_[i].leaf()) {
+    const Node& n = nodes_[i];
     double cost[2];
     for (int k = 0; k < 2; ++k) {
-      const Box cbox = boxOf(static_cast<std::size_t>(n.child[k]));
+      const Box cbox = boxOf(n.index + static_cast<std::uint32_t>(k));
       Box u = cbox;
       u.extend(fb);
       cost[k] = halfArea(u) - halfArea(cbox);
     }
-    i = n.child[cost[1] < cost[0] ? 1 : 0];
+    i = n.index + (cost[1] < cost[0] ? 1u : 0u);
   }
   return i;
 }
 
-void TriangleBvh::splitLeaf(const mesh::SurfaceMesh& m, std::int32_t leaf, std::vector<std::int32_t>& dirty) {
-  // Turns a full leaf into an inner node with two leaves split at the median centroid.
-  Node& n = nodes_[static_cast<std::size_t>(leaf)];
-  std::array<std::uint32_t, kLeafCapacity> faces{};
-  const std::int32_t count = n.count;
-  std::copy(n.faces, n.faces + count, faces.begin());
+void TriangleBvh::splitLeaf(const mesh::SurfaceMesh& m, std::uint32_t leaf, std::vector<std::uint32_t>& dirty) {
+  // A full leaf becomes an inner node over two leaves split at the median centroid
+  // of its faces; the left child keeps the block, the right one gets a new block.
+  const std::uint32_t oldBlock = nodes_[leaf].index;
+  const std::uint32_t count = nodes_[leaf].count;
+  std::array<TriRef, kLeafCapacity> tris{};
+  std::copy(blocks_[oldBlock].tri, blocks_[oldBlock].tri + count, tris.begin());
+  const Vector3d* P = m.positions().data();
   std::array<Vector3d, kLeafCapacity> c;
   Box cb;
-  for (std::int32_t i = 0; i < count; ++i) {
-    const auto& vs = m.vertices(Face(faces[static_cast<std::size_t>(i)]));
-    c[static_cast<std::size_t>(i)] = (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0;
-    cb.extend(c[static_cast<std::size_t>(i)]);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    c[i] = (P[tris[i].v[0]] + P[tris[i].v[1]] + P[tris[i].v[2]]) / 3.0;
+    cb.extend(c[i]);
   }
   int axis = 0;
   (cb.max - cb.min).maxCoeff(&axis);
-  std::array<int, kLeafCapacity> order{};
-  for (int i = 0; i < count; ++i) order[static_cast<std::size_t>(i)] = i;
-  for (int i = 1; i < count; ++i) {  // insertion sort: at most kLeafCapacity items
-    const int x = order[static_cast<std::size_t>(i)];
-    int j = i;
-    for (; j > 0 && c[static_cast<std::size_t>(order[static_cast<std::size_t>(j - 1)])][axis] >
-                        c[static_cast<std::size_t>(x)][axis];
-         --j)
-      order[static_cast<std::size_t>(j)] = order[static_cast<std::size_t>(j - 1)];
-    order[static_cast<std::size_t>(j)] = x;
-  }
-  const std::int32_t l = newNode(leaf);
-  newNode(leaf);  // may reallocate: no references into nodes_ held from here
+  std::array<std::uint32_t, kLeafCapacity> order{};
+  for (std::uint32_t i = 0; i < count; ++i) order[i] = i;
+  std::sort(order.begin(), order.begin() + count,
+            [&](std::uint32_t x, std::uint32_t y) { return c[x][axis] < c[y][axis]; });
+  const std::uint32_t l = newPair(leaf);
+  const std::uint32_t newB = newBlock(l + 1);
+  blockLeaf_[oldBlock] = l;
+  const std::uint32_t half = count / 2;
   for (int k = 0; k < 2; ++k) {
-    Node& child = nodes_[static_cast<std::size_t>(l + k)];
-    const int from = k == 0 ? 0 : count / 2, to = k == 0 ? count / 2 : count;
-    for (int i = from; i < to; ++i) {
-      const std::uint32_t f = faces[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])];
-      child.faces[child.count++] = f;
-      faceLeaf_[f] = l + k;
+    const std::uint32_t child = l + static_cast<std::uint32_t>(k);
+    const std::uint32_t blk = k == 0 ? oldBlock : newB;
+    const std::uint32_t from = k == 0 ? 0 : half, to = k == 0 ? half : count;
+    for (std::uint32_t i = from; i < to; ++i) {
+      const TriRef& r = tris[order[i]];
+      blocks_[blk].tri[i - from] = r;
+      faceSlot_[r.face] = blk * kLeafCapacity + (i - from);
     }
-    fitLeaf(m, static_cast<std::size_t>(l + k));
+    nodes_[child].index = blk;
+    nodes_[child].count = to - from;
+    fitLeaf(m, child);
+    dirty.push_back(child);
   }
-  Node& parent = nodes_[static_cast<std::size_t>(leaf)];
-  parent.count = 0;
-  parent.child[0] = l;
-  parent.child[1] = l + 1;
-  dirty.push_back(l);
-  dirty.push_back(l + 1);
+  nodes_[leaf].index = l;
+  nodes_[leaf].count = kInner;
   const std::size_t d = depthOf(l);
   maxDepth_ = std::max(maxDepth_, d);
   if (d >= kMaxDepth) needsRebuild_ = true;
@@ -314,131 +612,144 @@ void TriangleBvh::splitLeaf(const mesh::SurfaceMesh& m, std::int32_t leaf, std::
 
 void TriangleBvh::insertFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
   checkMesh(m, "insertFaces");
-  if (faceLeaf_.size() < m.facesSize()) faceLeaf_.resize(m.facesSize(), -1);
-  std::vector<std::int32_t> dirty;
+  if (faceSlot_.size() < m.facesSize()) faceSlot_.resize(m.facesSize(), kNone);
+  dirty_.clear();
   for (Face f : faces) {
     if (!m.isValid(f)) throw CollisionError("TriangleBvh::insertFaces: dead or foreign face");
     if (tracks(f)) {
-      dirty.push_back(faceLeaf_[f.idx()]);
+      reread(m, f);
+      dirty_.push_back(leafOf(f));
       continue;
     }
-    std::int32_t leaf = chooseLeaf(m, f);
-    if (nodes_[static_cast<std::size_t>(leaf)].count == kLeafCapacity) {
-      splitLeaf(m, leaf, dirty);
+    std::uint32_t leaf = chooseLeaf(m, f);
+    if (nodes_[leaf].count == kLeafCapacity) {
+      splitLeaf(m, leaf, dirty_);
       // Into the half whose box grows least.
       Box fb;
-      for (mesh::Vertex v : m.vertices(f)) fb.extend(m.position(v));
-      const Node& inner = nodes_[static_cast<std::size_t>(leaf)];
+      for (Vertex v : m.vertices(f)) fb.extend(m.position(v));
+      const std::uint32_t c = nodes_[leaf].index;
       double cost[2];
       for (int k = 0; k < 2; ++k) {
-        const Box cbox = boxOf(static_cast<std::size_t>(inner.child[k]));
+        const Box cbox = boxOf(c + static_cast<std::uint32_t>(k));
         Box u = cbox;
         u.extend(fb);
         cost[k] = halfArea(u) - halfArea(cbox);
       }
-      leaf = inner.child[cost[1] < cost[0] ? 1 : 0];
+      leaf = c + (cost[1] < cost[0] ? 1u : 0u);
     }
-    Node& n = nodes_[static_cast<std::size_t>(leaf)];
-    n.faces[n.count++] = f.idx();
-    faceLeaf_[f.idx()] = leaf;
-    dirty.push_back(leaf);
+    Node& n = nodes_[leaf];
+    const auto& vs = m.vertices(f);
+    blocks_[n.index].tri[n.count] = {f.idx(), {vs[0].idx(), vs[1].idx(), vs[2].idx()}};
+    faceSlot_[f.idx()] = n.index * kLeafCapacity + n.count;
+    ++n.count;
+    dirty_.push_back(leaf);
     ++tracked_;
     ++editsSinceBuild_;
   }
-  refitUpwards(m, dirty);
+  refitUpwards(m, dirty_);
   if (needsRebuild_) build(m);
 }
 
 void TriangleBvh::removeFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
   checkMesh(m, "removeFaces");
-  std::vector<std::int32_t> dirty;
+  dirty_.clear();
   for (Face f : faces) {
     if (!tracks(f)) continue;
-    const std::int32_t leaf = faceLeaf_[f.idx()];
-    Node& n = nodes_[static_cast<std::size_t>(leaf)];
-    for (std::int32_t i = 0; i < n.count; ++i)
-      if (n.faces[i] == f.idx()) {
-        n.faces[i] = n.faces[n.count - 1];
-        --n.count;
-        break;
-      }
-    faceLeaf_[f.idx()] = -1;
-    dirty.push_back(leaf);
+    const std::uint32_t s = faceSlot_[f.idx()];
+    const std::uint32_t b = s / kLeafCapacity, pos = s % kLeafCapacity;
+    const std::uint32_t leaf = blockLeaf_[b];
+    Node& n = nodes_[leaf];
+    // Swap the last face of the block into the hole.
+    const std::uint32_t last = n.count - 1;
+    if (pos != last) {
+      blocks_[b].tri[pos] = blocks_[b].tri[last];
+      faceSlot_[blocks_[b].tri[pos].face] = s;
+    }
+    --n.count;
+    faceSlot_[f.idx()] = kNone;
+    dirty_.push_back(leaf);
     --tracked_;
     ++editsSinceBuild_;
   }
   // Leaf boxes read only the faces still listed, so dead faces are never touched.
-  refitUpwards(m, dirty);
+  refitUpwards(m, dirty_);
+}
+
+bool TriangleBvh::needsSync(const mesh::SurfaceMesh& m) const {
+  return !built_ || m.layoutVersion() != seenLayout_ || m.editedFaces().size() != seenJournal_ ||
+         m.facesSize() != seenFaces_;
 }
 
 SyncResult TriangleBvh::sync(const mesh::SurfaceMesh& m) {
-  if (!built_) {
-    build(m);
-    return SyncResult::Rebuilt;
-  }
-  if (m.topologyVersion() == seenVersion_ && m.facesSize() == seenFaces_ && m.verticesSize() == seenVertices_)
+  if (!needsSync(m)) {
+    seenVersion_ = m.topologyVersion();
+    seenVertices_ = m.verticesSize();
     return SyncResult::Unchanged;
-  const std::size_t deletedNow = m.facesSize() - m.nFaces();
-  // Compaction renumbers faces; a shrinking mesh is another mesh: rebuild.
-  if (m.facesSize() < seenFaces_ || m.verticesSize() < seenVertices_ || deletedNow < seenDeletedFaces_) {
+  }
+  // A new layout (compaction, clear, assignment) renumbers or replaces elements.
+  if (!built_ || m.layoutVersion() != seenLayout_ || m.editedFaces().size() < seenJournal_ ||
+      m.facesSize() < seenFaces_) {
     build(m);
     return SyncResult::Rebuilt;
   }
-  if (faceLeaf_.size() < m.facesSize()) faceLeaf_.resize(m.facesSize(), -1);
-  // Faces that changed shape without a new handle all touch a new vertex (split
-  // edge/face/vertex, separate edge keep the old handles for one part).
-  std::vector<Face> touched;
-  for (std::size_t v = seenVertices_; v < m.verticesSize(); ++v) {
-    const mesh::Vertex vh(v);
-    if (!m.isValid(vh)) continue;
-    for (mesh::Edge e : m.edges(vh))
-      for (int k = 0; k < 2; ++k) {
-        const Face f = m.face(e, k);
-        if (f.isValid() && f.idx() < seenFaces_) touched.push_back(f);
-      }
+  if (faceSlot_.size() < m.facesSize()) faceSlot_.resize(m.facesSize(), kNone);
+  // Every face created, deleted or re-set since the last sync, once each; its final
+  // state decides: dead -> out, tracked -> re-read corners, new -> inserted.
+  const auto journal = m.editedFaces().subspan(seenJournal_);
+  if (faceMark_.size() < m.facesSize()) faceMark_.resize(m.facesSize(), 0);
+  if (++faceEpoch_ == 0) {
+    std::fill(faceMark_.begin(), faceMark_.end(), 0);
+    faceEpoch_ = 1;
   }
-  // Removal first, so dead faces never sit in a leaf a refit reads.
-  std::size_t liveNew = 0;
-  for (std::size_t f = seenFaces_; f < m.facesSize(); ++f) liveNew += m.isValid(Face(f)) ? 1 : 0;
-  if (tracked_ + liveNew != m.nFaces()) {
-    std::vector<Face> dead;
-    for (std::size_t f = 0; f < seenFaces_; ++f)
-      if (faceLeaf_[f] >= 0 && m.isDeleted(Face(f))) dead.push_back(Face(f));
-    removeFaces(m, dead);
+  removed_.clear();
+  added_.clear();
+  std::vector<std::uint32_t>& dirty = dirtySync_;
+  dirty.clear();
+  for (Face f : journal) {
+    if (f.idx() >= faceMark_.size() || faceMark_[f.idx()] == faceEpoch_) continue;
+    faceMark_[f.idx()] = faceEpoch_;
+    if (!m.isValid(f)) {
+      if (tracks(f)) removed_.push_back(f);
+    } else if (tracks(f)) {
+      reread(m, f);
+      dirty.push_back(leafOf(f));
+    } else {
+      added_.push_back(f);
+    }
   }
-  std::erase_if(touched, [&](Face f) { return !m.isValid(f); });
-  refitFaces(m, touched);
-  std::vector<Face> added;
+  // Faces appended without a journal entry cannot exist, but be safe about sizes.
   for (std::size_t f = seenFaces_; f < m.facesSize(); ++f)
-    if (m.isValid(Face(f))) added.push_back(Face(f));
-  insertFaces(m, added);
+    if (faceMark_[f] != faceEpoch_ && m.isValid(Face(f)) && !tracks(Face(f))) added_.push_back(Face(f));
+  refitUpwards(m, dirty);
+  const std::size_t buildsBefore = builds_;
+  removeFaces(m, removed_);
+  insertFaces(m, added_);
   remember(m);
-  if (needsRebuild_ || editsSinceBuild_ > std::max<std::size_t>(facesAtBuild_, 64)) {
+  if (builds_ != buildsBefore) return SyncResult::Rebuilt;
+  if (needsRebuild_ ||
+      static_cast<double>(editsSinceBuild_) > std::max(kRebuildFraction * static_cast<double>(facesAtBuild_), 64.0)) {
     build(m);
     return SyncResult::Rebuilt;
   }
   return SyncResult::Local;
 }
 
+// ---- queries --------------------------------------------------------------------
+
 void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const {
-  if (hot_.empty()) return;
+  // Boxes already carry the pad; grow the query box by the same amount so that the
+  // test is as loose as pad on both sides.
   const Vector3d lo = box.min.array() - pad_, hi = box.max.array() + pad_;
-  std::array<std::int32_t, kStack> stack;
-  std::size_t top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const std::int32_t i = stack[--top];
-    const HotNode& h = hot_[static_cast<std::size_t>(i)];
-    if (h.lo[0] > hi[0] || h.lo[1] > hi[1] || h.lo[2] > hi[2] || lo[0] > h.hi[0] || lo[1] > h.hi[1] || lo[2] > h.hi[2])
-      continue;
-    if (h.child[0] < 0) {
-      const Node& n = nodes_[static_cast<std::size_t>(i)];
-      for (std::int32_t k = 0; k < n.count; ++k) out.push_back(Face(n.faces[k]));
-    } else {
-      stack[top++] = h.child[1];
-      stack[top++] = h.child[0];
-    }
-  }
+  traverse(
+      [&](const Node& h) {
+        return !(h.lo[0] > hi[0] || h.lo[1] > hi[1] || h.lo[2] > hi[2] || lo[0] > h.hi[0] || lo[1] > h.hi[1] ||
+                 lo[2] > h.hi[2]);
+      },
+      [&](const Node& leaf) {
+        const Block& blk = blocks_[leaf.index];
+        for (std::uint32_t k = 0; k < leaf.count; ++k) out.push_back(Face(blk.tri[k].face));
+        return false;
+      });
 }
 
 namespace {
@@ -479,83 +790,177 @@ struct TriangleSat {
 
 void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, const Vector3d& p2,
                                     std::vector<Face>& out) const {
-  if (hot_.empty()) return;
   const Vector3d tri[3] = {p0, p1, p2};
   const TriangleSat sat(tri);
   Box tb;
   for (const Vector3d& p : tri) tb.extend(p);
-  std::array<std::int32_t, kStack> stack;
-  std::size_t top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const std::int32_t i = stack[--top];
-    const HotNode& h = hot_[static_cast<std::size_t>(i)];
-    const Vector3d lo = Vector3d(h.lo[0], h.lo[1], h.lo[2]).array() - pad_;
-    const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + pad_;
-    if (!(lo.array() <= hi.array()).all()) continue;  // empty leaf
-    if ((lo.array() > tb.max.array()).any() || (hi.array() < tb.min.array()).any()) continue;
-    const bool leaf = h.child[0] < 0;
-    if (!sat.meets(0.5 * (lo + hi), 0.5 * (hi - lo), leaf)) continue;
-    if (leaf) {
-      const Node& n = nodes_[static_cast<std::size_t>(i)];
-      for (std::int32_t k = 0; k < n.count; ++k) out.push_back(Face(n.faces[k]));
-    } else {
-      stack[top++] = h.child[1];
-      stack[top++] = h.child[0];
-    }
-  }
+  // Boxes carry pad_ already; the extra pad_ keeps the old (twice padded) looseness
+  // for the SAT's own roundings.
+  traverse(
+      [&](const Node& h) {
+        const Vector3d lo = Vector3d(h.lo[0], h.lo[1], h.lo[2]).array() - pad_;
+        const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + pad_;
+        if (!(lo.array() <= hi.array()).all()) return false;  // empty leaf
+        if ((lo.array() > tb.max.array()).any() || (hi.array() < tb.min.array()).any()) return false;
+        return sat.meets(0.5 * (lo + hi), 0.5 * (hi - lo), h.leaf());
+      },
+      [&](const Node& leaf) {
+        const Block& blk = blocks_[leaf.index];
+        for (std::uint32_t k = 0; k < leaf.count; ++k) out.push_back(Face(blk.tri[k].face));
+        return false;
+      });
 }
 
 void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
                                    std::vector<SurfaceHit>& out, QueryCounters* counters) const {
   checkMesh(m, "intersectSegment");
   out.clear();
-  if (hot_.empty()) return;
-  const Vector3d d = b - a;
-  // Slab test against boxes grown by pad; axes the segment does not move along are
-  // a plain interval test.
-  double inv[3];
-  bool moves[3];
-  for (int k = 0; k < 3; ++k) {
-    moves[k] = d[k] != 0.0;
-    inv[k] = moves[k] ? 1.0 / d[k] : 0.0;
+  const double grow = queryGrow(a, b);
+  const SegmentSlab slab(a, b, grow);
+  const double segScale = std::max(maxAbs(a), maxAbs(b));
+  const Vector3d* P = m.positions().data();
+  QueryCounters qc;
+  auto leafVisit = [&](const Node& leaf) {
+    const Block& blk = blocks_[leaf.index];
+    qc.faces += leaf.count;
+    for (std::uint32_t k = 0; k < leaf.count; ++k) {
+      const TriRef& r = blk.tri[k];
+      const Vector3d &p0 = P[r.v[0]], &p1 = P[r.v[1]], &p2 = P[r.v[2]];
+      if (!mayHit(a, b, segScale, p0, p1, p2, tol_)) continue;
+      ++qc.exact;
+      const SegTriResult res = intersectSegmentTriangle(a, b, p0, p1, p2, tol_);
+      if (res.hit()) out.push_back(toHit(m, Face(r.face), m.vertices(Face(r.face)), res));
+    }
+    return false;
+  };
+  if (grow == 0.0) {
+    traverse(
+        [&](const Node& n) {
+          ++qc.nodes;
+          return slab.enter<false>(n.lo, n.hi) <= 1.0;
+        },
+        leafVisit);
+  } else {
+    traverse(
+        [&](const Node& n) {
+          ++qc.nodes;
+          return slab.enter<true>(n.lo, n.hi) <= 1.0;
+        },
+        leafVisit);
   }
-  std::array<std::int32_t, kStack> stack;
-  std::size_t top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const std::int32_t i = stack[--top];
-    const HotNode& h = hot_[static_cast<std::size_t>(i)];
-    if (counters) ++counters->nodes;
-    double t0 = 0.0, t1 = 1.0;
-    bool hit = true;
-    for (int k = 0; k < 3 && hit; ++k) {
-      const double mn = static_cast<double>(h.lo[k]) - pad_, mx = static_cast<double>(h.hi[k]) + pad_;
-      if (!moves[k]) {
-        hit = a[k] >= mn && a[k] <= mx;
-        continue;
-      }
-      double u = (mn - a[k]) * inv[k], w = (mx - a[k]) * inv[k];
-      if (u > w) std::swap(u, w);
-      t0 = std::max(t0, u);
-      t1 = std::min(t1, w);
-      hit = t0 <= t1;
-    }
-    if (!hit) continue;
-    if (h.child[0] < 0) {
-      const Node& n = nodes_[static_cast<std::size_t>(i)];
-      if (counters) counters->faces += static_cast<std::size_t>(n.count);
-      for (std::int32_t k = 0; k < n.count; ++k) {
-        SurfaceHit sh = intersectSegmentFace(m, Face(n.faces[k]), a, b, tol_);
-        if (sh.kind != HitKind::None) out.push_back(sh);
-      }
-    } else {
-      stack[top++] = h.child[1];
-      stack[top++] = h.child[0];
-    }
+  if (counters) {
+    counters->nodes += qc.nodes;
+    counters->faces += qc.faces;
+    counters->exact += qc.exact;
   }
   if (out.size() > 1) canonicalizeHits(m, out, defaultMergeDistance(a, b, tol_));
 }
+
+bool TriangleBvh::anyHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
+                         QueryCounters* counters) const {
+  checkMesh(m, "anyHit");
+  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const double segScale = std::max(maxAbs(a), maxAbs(b));
+  const Vector3d* P = m.positions().data();
+  QueryCounters qc;
+  bool found = false;
+  traverse(
+      [&](const Node& n) {
+        ++qc.nodes;
+        return slab.enter<true>(n.lo, n.hi) <= 1.0;
+      },
+      [&](const Node& leaf) {
+        const Block& blk = blocks_[leaf.index];
+        for (std::uint32_t k = 0; k < leaf.count; ++k) {
+          const TriRef& r = blk.tri[k];
+          ++qc.faces;
+          if (!mayHit(a, b, segScale, P[r.v[0]], P[r.v[1]], P[r.v[2]], tol_)) continue;
+          ++qc.exact;
+          if (intersectSegmentTriangle(a, b, P[r.v[0]], P[r.v[1]], P[r.v[2]], tol_).hit()) return found = true;
+        }
+        return false;
+      });
+  if (counters) {
+    counters->nodes += qc.nodes;
+    counters->faces += qc.faces;
+    counters->exact += qc.exact;
+  }
+  return found;
+}
+
+bool TriangleBvh::firstHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b, SurfaceHit& out,
+                           QueryCounters* counters) const {
+  checkMesh(m, "firstHit");
+  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const double segScale = std::max(maxAbs(a), maxAbs(b));
+  const Vector3d* P = m.positions().data();
+  const double md = defaultMergeDistance(a, b, tol_);
+  const double len = (b - a).norm();
+  // Canonicalisation moves a contact to a covering one at most md away (twice along
+  // a chain interior -> edge -> vertex); the covering hits of those lie within md
+  // again. So every hit up to 3 md past the earliest raw hit decides the front.
+  const double window =
+      len > 0.0 ? 3.0 * md / len * 1.01 + 16.0 * DBL_EPSILON : std::numeric_limits<double>::infinity();
+  QueryCounters qc;
+  std::vector<SurfaceHit> hits;
+  std::vector<std::uint32_t> tested;  // faces that passed the cheap test (few)
+  double tMin = std::numeric_limits<double>::infinity();
+  auto test = [&](Face f, const Vector3d& p0, const Vector3d& p1, const Vector3d& p2) {
+    ++qc.faces;
+    if (!mayHit(a, b, segScale, p0, p1, p2, tol_)) return;
+    if (std::find(tested.begin(), tested.end(), f.idx()) != tested.end()) return;
+    tested.push_back(f.idx());
+    ++qc.exact;
+    const SegTriResult r = intersectSegmentTriangle(a, b, p0, p1, p2, tol_);
+    if (!r.hit()) return;
+    hits.push_back(toHit(m, f, m.vertices(f), r));
+    tMin = std::min(tMin, r.t);
+  };
+  auto testFace = [&](Face f) {
+    const auto& vs = m.vertices(f);
+    test(f, m.position(vs[0]), m.position(vs[1]), m.position(vs[2]));
+  };
+  traverseOrdered(
+      [&](const Node& n) {
+        ++qc.nodes;
+        return slab.enter<true>(n.lo, n.hi);
+      },
+      [&](const Node& leaf) {
+        const Block& blk = blocks_[leaf.index];
+        for (std::uint32_t k = 0; k < leaf.count; ++k) {
+          const TriRef& r = blk.tri[k];
+          test(Face(r.face), P[r.v[0]], P[r.v[1]], P[r.v[2]]);
+        }
+        return tMin + window;
+      });
+  if (!hits.empty()) {
+    // The same contact on a vertex or edge is reported by each face around it and
+    // the canonical one is the lowest face's: test them all, wherever their t falls.
+    // Hits past the window change nothing: they are neither first nor within the
+    // merge distance of a hit that could be.
+    for (std::size_t i = 0; i < hits.size(); ++i) {
+      const SurfaceHit h = hits[i];
+      if (h.kind == HitKind::OnVertex) {
+        for (mesh::Edge e : m.edges(h.vertex))
+          for (int k = 0; k < 2; ++k)
+            if (m.face(e, k).isValid()) testFace(m.face(e, k));
+      } else if (h.kind == HitKind::OnEdge) {
+        for (int k = 0; k < 2; ++k)
+          if (m.face(h.edge, k).isValid()) testFace(m.face(h.edge, k));
+      }
+    }
+    if (hits.size() > 1) canonicalizeHits(m, hits, md);
+    out = hits.front();
+  }
+  if (counters) {
+    counters->nodes += qc.nodes;
+    counters->faces += qc.faces;
+    counters->exact += qc.exact;
+  }
+  return !hits.empty();
+}
+
+// ---- diagnostics ----------------------------------------------------------------
 
 BvhStats TriangleBvh::stats() const {
   BvhStats s;
@@ -563,46 +968,59 @@ BvhStats TriangleBvh::stats() const {
   for (const Node& n : nodes_)
     if (n.leaf()) {
       ++s.leaves;
-      s.faces += static_cast<std::size_t>(n.count);
+      s.faces += n.count;
       if (n.count == 0) ++s.emptyLeaves;
     }
   s.maxDepth = maxDepth_;
   s.editsSinceBuild = editsSinceBuild_;
   s.builds = builds_;
+  s.bytes = nodes_.capacity() * sizeof(Node) + parent_.capacity() * 4 + blocks_.capacity() * sizeof(Block) +
+            blockLeaf_.capacity() * 4 + faceSlot_.capacity() * 4;
   return s;
 }
 
 std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
   std::ostringstream why;
   std::vector<int> seen(m.facesSize(), 0);
-  if (hot_.size() != nodes_.size()) why << "hot array out of step\n";
-  for (std::size_t i = 0; i < nodes_.size() && hot_.size() == nodes_.size(); ++i) {
+  if (parent_.size() != nodes_.size()) why << "parent array out of step\n";
+  if (blockLeaf_.size() != blocks_.size()) why << "block map out of step\n";
+  for (std::size_t i = 0; i < nodes_.size() && parent_.size() == nodes_.size(); ++i) {
     const Node& n = nodes_[i];
     const Box nb = boxOf(i);
-    if (hot_[i].child[0] != n.child[0] || hot_[i].child[1] != n.child[1]) why << "hot children of " << i << " stale\n";
     if (n.leaf()) {
-      for (std::int32_t k = 0; k < n.count; ++k) {
-        const Face f(n.faces[k]);
+      if (n.count > static_cast<std::uint32_t>(kLeafCapacity)) why << "leaf " << i << " overfull\n";
+      if (n.index >= blocks_.size() || blockLeaf_[n.index] != i) {
+        why << "leaf " << i << " and its block disagree\n";
+        continue;
+      }
+      for (std::uint32_t k = 0; k < n.count && k < static_cast<std::uint32_t>(kLeafCapacity); ++k) {
+        const TriRef& r = blocks_[n.index].tri[k];
+        const Face f(r.face);
         if (f.idx() >= m.facesSize() || !m.isValid(f)) {
           why << "leaf " << i << " holds dead face " << f << "\n";
           continue;
         }
         ++seen[f.idx()];
-        if (faceLeaf_[f.idx()] != static_cast<std::int32_t>(i)) why << "faceLeaf of " << f << " is wrong\n";
-        for (mesh::Vertex v : m.vertices(f)) {
-          const Vector3d& p = m.position(v);
+        if (faceSlot_[f.idx()] != n.index * kLeafCapacity + k) why << "slot of " << f << " is wrong\n";
+        const auto& vs = m.vertices(f);
+        for (int c = 0; c < 3; ++c) {
+          if (r.v[c] != vs[static_cast<std::size_t>(c)].idx()) why << "stale corners of " << f << "\n";
+          const Vector3d& p = m.position(vs[static_cast<std::size_t>(c)]);
           if ((p.array() < nb.min.array()).any() || (p.array() > nb.max.array()).any())
             why << "leaf " << i << " box misses a corner of " << f << "\n";
         }
       }
     } else {
-      for (int k = 0; k < 2; ++k) {
-        const Node& c = nodes_[static_cast<std::size_t>(n.child[k])];
-        if (c.parent != static_cast<std::int32_t>(i)) why << "node " << n.child[k] << " has a wrong parent\n";
-        if (n.child[k] <= static_cast<std::int32_t>(i)) why << "child index not after its parent\n";
-        const Box cb = boxOf(static_cast<std::size_t>(n.child[k]));
+      for (std::uint32_t k = 0; k < 2; ++k) {
+        const std::uint32_t c = n.index + k;
+        if (c >= nodes_.size() || c <= i) {
+          why << "child index of " << i << " not after its parent\n";
+          continue;
+        }
+        if (parent_[c] != i) why << "node " << c << " has a wrong parent\n";
+        const Box cb = boxOf(c);
         if (!cb.empty() && ((cb.min.array() < nb.min.array()).any() || (cb.max.array() > nb.max.array()).any()))
-          why << "node " << i << " box misses child " << n.child[k] << "\n";
+          why << "node " << i << " box misses child " << c << "\n";
       }
     }
   }

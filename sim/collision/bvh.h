@@ -5,21 +5,25 @@
 // The tree does not own or point to the mesh: every call takes the mesh, which must
 // be the one the tree was built for (sizes are checked; misuse throws CollisionError).
 //
+// Layout (see README.md): 32-byte nodes (float box rounded outwards and grown by
+// the tolerance pad, then one index and one count), the two children of a node
+// adjacent; leaves of at most 4 faces whose references (face and its three vertex
+// indices, 16 bytes each) fill one 64-byte block, so a leaf test reads one cache
+// line of indices plus the vertex positions. Binned-SAH build.
+//
 // Keeping it current:
 //  * vertices moved      -> refit() (all boxes, O(n), no allocation) or
 //                           refitVertices()/refitFaces() (only the touched paths);
-//  * topology edited     -> sync(): compares mesh.topologyVersion() and sizes with
-//                           what the tree saw last and updates locally (new faces go
-//                           into the leaf of an edge neighbour, faces around new
-//                           vertices are refitted, deleted faces leave their leaf);
-//                           a full rebuild when the mesh shrank or was compacted
-//                           since the last sync, or when local growth made the
-//                           tree too deep or it has absorbed as many edits as it
-//                           had faces. garbageCollection() renumbers faces, and a
-//                           compaction after deletions AND additions can leave the
-//                           sizes looking like growth: after garbageCollection()
-//                           call build() (CollisionWorld::rebuild) to be safe;
+//  * topology edited     -> sync(): compares the mesh's versions and sizes with what
+//                           the tree saw last and updates locally (new faces go into
+//                           a free slot of the leaf of an edge neighbour, a full leaf
+//                           splits in two, faces whose corners changed are re-read
+//                           and refitted, deleted faces leave their leaf); a full
+//                           rebuild only when the mesh was compacted or shrank, the
+//                           tree became too deep, or the local edits since the last
+//                           build exceed kRebuildFraction of its faces;
 //  * or tell it directly -> insertFaces()/removeFaces()/refitFaces().
+// After garbageCollection() sync() notices and rebuilds (build() is always safe).
 // Boxes are tested grown by the tolerance, so boundary hits are never culled.
 #include <cstdint>
 #include <limits>
@@ -54,8 +58,9 @@ struct Box {
 
 struct BvhStats {
   std::size_t nodes = 0, leaves = 0, faces = 0, maxDepth = 0, emptyLeaves = 0;
-  std::size_t editsSinceBuild = 0;  // faces inserted + removed since the last full build
+  std::size_t editsSinceBuild = 0;  // faces inserted + removed + re-read since the last full build
   std::size_t builds = 0;           // full builds so far (1 after construction)
+  std::size_t bytes = 0;            // memory of nodes, leaf blocks and maps
 };
 
 enum class SyncResult { Unchanged, Local, Rebuilt };
@@ -63,25 +68,30 @@ enum class SyncResult { Unchanged, Local, Rebuilt };
 // Work done by one query (for benchmarks and tuning).
 struct QueryCounters {
   std::size_t nodes = 0;  // boxes tested
-  std::size_t faces = 0;  // triangles tested
+  std::size_t faces = 0;  // triangles tested (cheap rejection included)
+  std::size_t exact = 0;  // triangles that needed the full tolerant test
 };
 
 class TriangleBvh {
  public:
-  static constexpr int kLeafCapacity = 8;  // faces a leaf can hold before it splits
+  static constexpr int kLeafCapacity = 4;  // faces per leaf block (one cache line)
   static constexpr int kBuildLeafSize = 4;
-  static constexpr std::size_t kMaxDepth = 80;  // deeper after local splits -> rebuild
+  static constexpr std::size_t kMaxDepth = 80;      // deeper after local splits -> rebuild
+  static constexpr double kRebuildFraction = 0.25;  // local edits / faces at build -> rebuild
 
   TriangleBvh() = default;
   explicit TriangleBvh(const mesh::SurfaceMesh& m, const Tolerance& tol = {}) : tol_(tol) { build(m); }
 
   void build(const mesh::SurfaceMesh& m);
   SyncResult sync(const mesh::SurfaceMesh& m);
+  // True when the mesh's topology differs from what the tree last saw (cheap).
+  [[nodiscard]] bool needsSync(const mesh::SurfaceMesh& m) const;
 
+  // Every box from the current positions, bottom-up: O(nodes + faces), no allocation.
   void refit(const mesh::SurfaceMesh& m);
   void refitFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
   void refitVertices(const mesh::SurfaceMesh& m, std::span<const mesh::Vertex> moved);
-  // Faces must be live; already tracked faces are refitted instead.
+  // Faces must be live; already tracked faces are re-read (corners) and refitted.
   void insertFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
   // Untracked faces are ignored. Faces may already be deleted in the mesh.
   void removeFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
@@ -96,6 +106,14 @@ class TriangleBvh {
     intersectSegment(m, a, b, out);
     return out;
   }
+  // The first contact along a->b: exactly intersectSegment(m, a, b).front(), found
+  // near-to-far with pruning. False (out untouched) when there is none.
+  bool firstHit(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b, SurfaceHit& out,
+                QueryCounters* counters = nullptr) const;
+  // Whether a->b touches the surface at all (stops at the first triangle hit).
+  [[nodiscard]] bool anyHit(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            QueryCounters* counters = nullptr) const;
+
   // Appends every tracked face whose box (grown by the tolerance) overlaps `box`.
   void facesOverlapping(const Box& box, std::vector<mesh::Face>& out) const;
   // Appends every tracked face in a leaf whose box (grown by the tolerance) meets
@@ -103,36 +121,46 @@ class TriangleBvh {
   void facesNearTriangle(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
                          std::vector<mesh::Face>& out) const;
 
-  [[nodiscard]] bool tracks(mesh::Face f) const { return f.idx() < faceLeaf_.size() && faceLeaf_[f.idx()] >= 0; }
-  // Root box (float precision, rounded outwards).
+  [[nodiscard]] bool tracks(mesh::Face f) const { return f.idx() < faceSlot_.size() && faceSlot_[f.idx()] != kNone; }
+  // Root box (float precision, rounded outwards, grown by pad()).
   [[nodiscard]] Box bounds() const { return nodes_.empty() ? Box{} : boxOf(0); }
   [[nodiscard]] const Tolerance& tolerance() const { return tol_; }
   [[nodiscard]] double pad() const { return pad_; }
   [[nodiscard]] BvhStats stats() const;
-  // Invariants against the mesh: every live face in exactly one leaf, no dead face
-  // tracked, every box contains its faces and children. Empty string when fine.
+  // Invariants against the mesh: every live face in exactly one leaf with its
+  // current corners, no dead face tracked, every box contains its faces and
+  // children. Empty string when fine.
   [[nodiscard]] std::string check(const mesh::SurfaceMesh& m) const;
 
  private:
-  // Structure and leaf contents; the boxes live only in hot_ (floats rounded
-  // outwards), which keeps refits to one small array.
+  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  static constexpr std::uint32_t kInner = std::numeric_limits<std::uint32_t>::max();
+  // 32 bytes, two per cache line. Inner: count == kInner, children index, index+1.
+  // Leaf: count faces (0..4) in block `index`.
   struct Node {
-    std::int32_t child[2] = {-1, -1};
-    std::int32_t parent = -1;
-    std::int32_t count = 0;  // faces in a leaf
-    std::uint32_t faces[kLeafCapacity] = {};
-    [[nodiscard]] bool leaf() const { return child[0] < 0; }
-  };
-  // The traversal copy of a node: float box rounded outwards, 32 bytes, two per
-  // cache line. Written from Node by writeHot() whenever a box is fitted.
-  struct HotNode {
     float lo[3], hi[3];
-    std::int32_t child[2];
+    std::uint32_t index, count;
+    [[nodiscard]] bool leaf() const { return count != kInner; }
   };
-  std::int32_t newNode(std::int32_t parent);
-  void fitLeaf(const mesh::SurfaceMesh& m, std::size_t i);
-  void fitInner(std::size_t i);
-  void fit(const mesh::SurfaceMesh& m, std::size_t i) {
+  static Node emptyNode();
+  struct TriRef {
+    std::uint32_t face, v[3];
+  };
+  struct alignas(64) Block {
+    TriRef tri[kLeafCapacity];
+  };
+
+  template <class NodeTest, class LeafVisit>
+  void traverse(NodeTest&& test, LeafVisit&& visit) const;
+  template <class NodeTest, class LeafVisit>
+  void traverseOrdered(NodeTest&& test, LeafVisit&& visit) const;
+
+  std::uint32_t newPair(std::uint32_t parent);
+  std::uint32_t newBlock(std::uint32_t leaf);
+  void makeLeaf(std::uint32_t node, const std::uint32_t* faces, std::size_t count, const mesh::SurfaceMesh& m);
+  void fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i);
+  void fitInner(std::uint32_t i);
+  void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
     if (nodes_[i].leaf()) {
       fitLeaf(m, i);
     } else {
@@ -140,31 +168,43 @@ class TriangleBvh {
     }
   }
   [[nodiscard]] Box boxOf(std::size_t i) const;
+  [[nodiscard]] std::uint32_t leafOf(mesh::Face f) const { return blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity]; }
 
-  std::int32_t buildRange(const mesh::SurfaceMesh& m, std::uint32_t* first, std::uint32_t* last,
-                          std::vector<Eigen::Vector3d>& centroid, std::int32_t parent, std::size_t depth);
-  void refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::int32_t>& dirtyLeaves);
-  std::int32_t chooseLeaf(const mesh::SurfaceMesh& m, mesh::Face f) const;
-  void splitLeaf(const mesh::SurfaceMesh& m, std::int32_t leaf, std::vector<std::int32_t>& dirty);
-  std::size_t depthOf(std::int32_t node) const;
+  struct BuildItem;
+  void buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last, std::size_t depth);
+  void refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::uint32_t>& dirtyLeaves);
+  std::uint32_t chooseLeaf(const mesh::SurfaceMesh& m, mesh::Face f) const;
+  void splitLeaf(const mesh::SurfaceMesh& m, std::uint32_t leaf, std::vector<std::uint32_t>& dirty);
+  void reread(const mesh::SurfaceMesh& m, mesh::Face f);
+  std::size_t depthOf(std::uint32_t node) const;
   void remember(const mesh::SurfaceMesh& m);
   void checkMesh(const mesh::SurfaceMesh& m, const char* where) const;
-  static double effectivePad(const mesh::SurfaceMesh& m, const Tolerance& tol);
+  [[nodiscard]] double queryGrow(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  static double effectivePad(double scale, const Tolerance& tol);
 
   Tolerance tol_;
   double pad_ = 0.0;
+  double padScale_ = 0.0;  // coordinate scale pad_ was computed for
   std::vector<Node> nodes_;
-  std::vector<HotNode> hot_;
-  std::vector<std::uint32_t> mark_;  // refitUpwards scratch: node visited in this epoch
+  std::vector<std::uint32_t> parent_;  // per node; kNone for the root
+  std::vector<Block> blocks_;
+  std::vector<std::uint32_t> blockLeaf_;          // per block: its leaf node
+  std::vector<std::uint32_t> faceSlot_;           // per face index: block * 4 + position, or kNone
+  std::vector<std::uint32_t> mark_;               // refitUpwards scratch: node visited in this epoch
+  std::vector<std::uint32_t> scratch_;            // refitUpwards scratch: nodes to fit
+  std::vector<std::uint32_t> dirty_, dirtySync_;  // leaves to refit (kept to avoid allocation)
+  std::vector<mesh::Face> removed_, added_;       // sync scratch
+  std::vector<std::uint32_t> faceMark_;           // sync scratch: face seen in this epoch
+  std::uint32_t faceEpoch_ = 0;
   std::uint32_t epoch_ = 0;
-  std::vector<std::int32_t> faceLeaf_;  // per face index: its leaf node, or -1
-  std::size_t tracked_ = 0;             // live faces in the tree
+  std::size_t tracked_ = 0;  // live faces in the tree
   std::size_t editsSinceBuild_ = 0, facesAtBuild_ = 0, builds_ = 0;
   std::size_t maxDepth_ = 0;
   bool needsRebuild_ = false;
   // What the mesh looked like at the last build/sync.
-  std::uint64_t seenVersion_ = 0;
-  std::size_t seenFaces_ = 0, seenVertices_ = 0, seenDeletedFaces_ = 0;
+  std::uint64_t seenVersion_ = 0, seenLayout_ = 0;
+  std::size_t seenJournal_ = 0;  // editedFaces() entries already applied
+  std::size_t seenFaces_ = 0, seenVertices_ = 0;
   bool built_ = false;
 };
 

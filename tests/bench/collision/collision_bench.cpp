@@ -1,10 +1,17 @@
-// Collision timings: one segment–triangle test, BVH segment queries at ~100k
-// triangles, full and local refit, local topology updates, build.
-// Run briefly on a shared machine, e.g.
+// Collision timings: one segment–triangle test, BVH segment queries on a tissue slab
+// of 1k/10k/100k/1M triangles (near-surface instrument segments and random ones),
+// first-hit queries, full and local refit, local topology updates per edited face,
+// build. Run briefly on a shared machine, e.g.
 //   bench/collision_bench --benchmark_min_time=0.2
+//   bench/collision_bench --benchmark_filter='Query(Near|Random)'
+// The slab is always 158 x 158 x 5 mm (closed, two layers); Arg(n) is the number of
+// cells per side: 16 -> 1.1k, 50 -> 10k, 158 -> 100k, 500 -> 1M triangles.
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cmath>
+#include <map>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -20,22 +27,43 @@ using Eigen::Vector3d;
 using ld::collision::TriangleBvh;
 using ld::mesh::SurfaceMesh;
 
-// A closed slab 158 x 158 x 5 mm with 1 mm cells: 100 528 triangles, two layers.
-const SurfaceMesh& slab100k() {
-  static const SurfaceMesh m = ld::collision::testing::slab(158, 1.0, 5.0);
-  return m;
+constexpr double kSide = 158.0;
+
+const SurfaceMesh& slabCells(int n) {
+  static std::map<int, std::unique_ptr<SurfaceMesh>> cache;
+  auto& p = cache[n];
+  if (!p) p = std::make_unique<SurfaceMesh>(ld::collision::testing::slab(n, kSide / n, 5.0));
+  return *p;
 }
+const SurfaceMesh& slab100k() { return slabCells(158); }
+
+using Segments = std::vector<std::pair<Vector3d, Vector3d>>;
 
 // Scalpel-like 20 mm segments through random points of the top, tilted up to ~35
-// degrees, reaching through the bottom layer (2 hits each).
-std::vector<std::pair<Vector3d, Vector3d>> blades(std::size_t n) {
+// degrees, reaching through the bottom layer (2 hits each): an instrument at work.
+Segments blades(std::size_t n) {
   std::mt19937_64 rng(1);
-  std::uniform_real_distribution<double> U(5.0, 153.0), T(-0.7, 0.7);
-  std::vector<std::pair<Vector3d, Vector3d>> s;
+  std::uniform_real_distribution<double> U(5.0, kSide - 5.0), T(-0.7, 0.7);
+  Segments s;
   for (std::size_t i = 0; i < n; ++i) {
     const Vector3d p(U(rng), U(rng), 0.0);
     const Vector3d dir = Vector3d(T(rng), T(rng), -1.0).normalized();
     s.emplace_back(p - 6.0 * dir, p + 14.0 * dir);
+  }
+  return s;
+}
+
+// 20 mm segments, centre uniform in the slab's box grown by 10 mm, direction uniform:
+// most miss, some graze a layer or a wall.
+Segments randomSegments(std::size_t n) {
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> X(-10.0, kSide + 10.0), Z(-15.0, 10.0);
+  std::normal_distribution<double> N(0.0, 1.0);
+  Segments s;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vector3d c(X(rng), X(rng), Z(rng));
+    const Vector3d d = Vector3d(N(rng), N(rng), N(rng)).normalized();
+    s.emplace_back(c - 10.0 * d, c + 10.0 * d);
   }
   return s;
 }
@@ -46,30 +74,65 @@ void BM_SegmentTriangle(benchmark::State& st) {
 }
 BENCHMARK(BM_SegmentTriangle);
 
-void BM_BvhSegmentQuery100k(benchmark::State& st) {
-  const SurfaceMesh& m = slab100k();
+void runQueries(benchmark::State& st, const Segments& segs) {
+  const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
   const TriangleBvh bvh(m);
-  const auto segs = blades(1024);
   std::vector<ld::collision::SurfaceHit> hits;
   std::size_t i = 0, total = 0;
+  const std::size_t mask = segs.size() - 1;
   for (auto _ : st) {
-    const auto& [a, b] = segs[i++ & 1023];
+    const auto& [a, b] = segs[i++ & mask];
     bvh.intersectSegment(m, a, b, hits);
     total += hits.size();
   }
   ld::collision::QueryCounters qc;
   for (const auto& [a, b] : segs) bvh.intersectSegment(m, a, b, hits, &qc);
+  const auto n = static_cast<double>(segs.size());
   st.counters["triangles"] = static_cast<double>(m.nFaces());
   st.counters["hits_per_query"] = static_cast<double>(total) / static_cast<double>(st.iterations());
-  st.counters["boxes_per_query"] = static_cast<double>(qc.nodes) / static_cast<double>(segs.size());
-  st.counters["tris_per_query"] = static_cast<double>(qc.faces) / static_cast<double>(segs.size());
+  st.counters["boxes_per_query"] = static_cast<double>(qc.nodes) / n;
+  st.counters["tris_per_query"] = static_cast<double>(qc.faces) / n;
+  st.counters["exact_per_query"] = static_cast<double>(qc.exact) / n;
 }
-BENCHMARK(BM_BvhSegmentQuery100k)->Unit(benchmark::kMicrosecond);
+
+void BM_QueryNear(benchmark::State& st) { runQueries(st, blades(1024)); }
+BENCHMARK(BM_QueryNear)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
+
+void BM_QueryRandom(benchmark::State& st) { runQueries(st, randomSegments(1024)); }
+BENCHMARK(BM_QueryRandom)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
+
+// Only the first contact (near-to-far with pruning) and the yes/no test.
+void BM_FirstHitNear(benchmark::State& st) {
+  const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
+  const TriangleBvh bvh(m);
+  const auto segs = blades(1024);
+  ld::collision::SurfaceHit h;
+  std::size_t i = 0, found = 0;
+  for (auto _ : st) {
+    const auto& [a, b] = segs[i++ & 1023];
+    found += bvh.firstHit(m, a, b, h) ? 1 : 0;
+  }
+  st.counters["found"] = static_cast<double>(found) / static_cast<double>(st.iterations());
+}
+BENCHMARK(BM_FirstHitNear)->Arg(158)->ArgName("cells")->Unit(benchmark::kMicrosecond);
+
+void BM_AnyHitRandom(benchmark::State& st) {
+  const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
+  const TriangleBvh bvh(m);
+  const auto segs = randomSegments(1024);
+  std::size_t i = 0, found = 0;
+  for (auto _ : st) {
+    const auto& [a, b] = segs[i++ & 1023];
+    found += bvh.anyHit(m, a, b) ? 1 : 0;
+  }
+  st.counters["found"] = static_cast<double>(found) / static_cast<double>(st.iterations());
+}
+BENCHMARK(BM_AnyHitRandom)->Arg(158)->ArgName("cells")->Unit(benchmark::kMicrosecond);
 
 // A stroke as the loop sees it: the blade moves `range(0)` micrometres per sample
 // along a wavy path across the slab (100 um = 100 mm/s at 1 kHz).
-std::vector<std::pair<Vector3d, Vector3d>> stroke(double stepMm, std::size_t n) {
-  std::vector<std::pair<Vector3d, Vector3d>> s;
+Segments stroke(double stepMm, std::size_t n) {
+  Segments s;
   for (std::size_t i = 0; i < n; ++i) {
     const double x = 10.0 + std::fmod(stepMm * static_cast<double>(i), 138.0);
     const Vector3d tip(x, 79.0 + 20.0 * std::sin(x / 15.0), -7.0);  // below the slab, edge up through both layers
@@ -161,17 +224,24 @@ void BM_BruteForceSegmentQuery100k(benchmark::State& st) {
 }
 BENCHMARK(BM_BruteForceSegmentQuery100k)->Unit(benchmark::kMillisecond)->Iterations(5);
 
-void BM_BvhBuild100k(benchmark::State& st) {
-  const SurfaceMesh& m = slab100k();
+void BM_BvhBuild(benchmark::State& st) {
+  const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
   for (auto _ : st) {
     TriangleBvh bvh(m);
     benchmark::DoNotOptimize(bvh.stats().nodes);
   }
+  TriangleBvh bvh(m);
+  const auto s = bvh.stats();
+  st.counters["triangles"] = static_cast<double>(m.nFaces());
+  st.counters["leaves"] = static_cast<double>(s.leaves);
+  st.counters["depth"] = static_cast<double>(s.maxDepth);
+  st.counters["MB"] = static_cast<double>(s.bytes) / 1e6;
 }
-BENCHMARK(BM_BvhBuild100k)->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BM_BvhBuild)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMillisecond)->Iterations(3);
 
-void BM_BvhRefitFull100k(benchmark::State& st) {
-  SurfaceMesh m = slab100k();
+// Physics moved every vertex: the full bottom-up refit.
+void BM_BvhRefitFull(benchmark::State& st) {
+  SurfaceMesh m = slabCells(static_cast<int>(st.range(0)));
   TriangleBvh bvh(m);
   double z = 0;
   for (auto _ : st) {
@@ -180,7 +250,7 @@ void BM_BvhRefitFull100k(benchmark::State& st) {
   }
   st.counters["triangles"] = static_cast<double>(m.nFaces());
 }
-BENCHMARK(BM_BvhRefitFull100k)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_BvhRefitFull)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
 
 // Local refit after a region of `range(0)` vertices moved (the active region).
 void BM_BvhRefitLocal100k(benchmark::State& st) {
@@ -188,9 +258,7 @@ void BM_BvhRefitLocal100k(benchmark::State& st) {
   TriangleBvh bvh(m);
   std::vector<ld::mesh::Vertex> moved;
   for (std::int64_t i = 0; i < st.range(0); ++i) moved.emplace_back(static_cast<std::uint32_t>(20000 + i));
-  double z = 0;
   for (auto _ : st) {
-    z += 1e-6;
     for (auto v : moved) m.position(v).z() += 1e-6;
     bvh.refitVertices(m, moved);
   }
@@ -198,14 +266,61 @@ void BM_BvhRefitLocal100k(benchmark::State& st) {
 }
 BENCHMARK(BM_BvhRefitLocal100k)->Arg(100)->Arg(1000)->Unit(benchmark::kMicrosecond);
 
-// One cut-like edit (split a face, then split one of its edges) plus the tree's
-// local sync; the mesh edit alone is measured separately to subtract.
-void BM_BvhLocalUpdate100k(benchmark::State& st) {
+// A cut as the cutter makes it: the face under the blade (found with the tree) is
+// split, then one of its edges, moving along a wavy line over the top; then
+// TriangleBvh::sync() reads the mesh's edit journal. Only sync() is timed (manual
+// time, per cut step); us_per_edited_face divides by the journal entries, the
+// rebuilds the policy triggers included. query_us_after: near-surface query cost
+// after all the edits (tree quality).
+void BM_BvhSyncPerEditedFace100k(benchmark::State& st) {
+  SurfaceMesh m = slab100k();
+  TriangleBvh bvh(m);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> U(0.2, 0.8);
+  std::size_t faces = 0, k = 0;
+  double seconds = 0.0;
+  std::vector<ld::collision::SurfaceHit> hits;
+  for (auto _ : st) {
+    const double x = 5.0 + std::fmod(0.05 * static_cast<double>(k), kSide - 10.0);
+    const double y = 79.0 + 30.0 * std::sin(x / 20.0) + 0.01 * static_cast<double>(k / 3000);
+    ++k;
+    bvh.intersectSegment(m, Vector3d(x, y, 1.0), Vector3d(x, y, -1.0), hits);
+    const std::size_t before = m.editedFaces().size();
+    if (!hits.empty()) {
+      const ld::mesh::Face f = hits[0].face;
+      const auto& vs = m.vertices(f);
+      const double u = U(rng), v = U(rng) * (1 - u);
+      m.splitFace(f, m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
+                         v * (m.position(vs[2]) - m.position(vs[0])));
+      const ld::mesh::Edge ed = m.edges(f)[0];
+      m.splitEdge(ed, 0.5 * (m.position(m.vertex(ed, 0)) + m.position(m.vertex(ed, 1))));
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    bvh.sync(m);
+    const auto t1 = std::chrono::steady_clock::now();
+    faces += m.editedFaces().size() - before;
+    const double dt = std::chrono::duration<double>(t1 - t0).count();
+    seconds += dt;
+    st.SetIterationTime(dt);
+  }
+  st.counters["edited_faces"] = static_cast<double>(faces);
+  st.counters["us_per_edited_face"] = faces ? 1e6 * seconds / static_cast<double>(faces) : 0.0;
+  st.counters["builds"] = static_cast<double>(bvh.stats().builds);
+  const auto segs = blades(256);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (const auto& [a, b] : segs) bvh.intersectSegment(m, a, b, hits);
+  const auto t1 = std::chrono::steady_clock::now();
+  st.counters["query_us_after"] = std::chrono::duration<double, std::micro>(t1 - t0).count() / 256.0;
+}
+BENCHMARK(BM_BvhSyncPerEditedFace100k)->UseManualTime()->Unit(benchmark::kMicrosecond)->Iterations(30000);
+
+// Wall time of the whole edit + sync loop per edited face (amortised rebuilds included).
+void BM_BvhEditAndSync100k(benchmark::State& st) {
   SurfaceMesh m = slab100k();
   TriangleBvh bvh(m);
   const bool sync = st.range(0) != 0;
   std::mt19937_64 rng(2);
-  std::size_t edits = 0;
+  std::size_t journal0 = m.editedFaces().size();
   for (auto _ : st) {
     const ld::mesh::Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
     if (!m.isValid(f)) continue;
@@ -215,12 +330,12 @@ void BM_BvhLocalUpdate100k(benchmark::State& st) {
     const ld::mesh::Edge e = m.edges(f)[0];
     m.splitEdge(e, 0.5 * (m.position(m.vertex(e, 0)) + m.position(m.vertex(e, 1))));
     if (sync) bvh.sync(m);
-    ++edits;
   }
   st.counters["builds"] = static_cast<double>(bvh.stats().builds);
-  st.counters["new_faces_per_iter"] = 3.0;  // 2 from the face split, 1-2 from the edge split
+  st.counters["edited_faces_per_iter"] =
+      static_cast<double>(m.editedFaces().size() - journal0) / static_cast<double>(st.iterations());
 }
-BENCHMARK(BM_BvhLocalUpdate100k)->Arg(0)->Arg(1)->ArgName("sync")->Unit(benchmark::kMicrosecond)->Iterations(20000);
+BENCHMARK(BM_BvhEditAndSync100k)->Arg(0)->Arg(1)->ArgName("sync")->Unit(benchmark::kMicrosecond)->Iterations(20000);
 
 }  // namespace
 

@@ -70,7 +70,7 @@ TEST(TriangleBvh, BuildTracksEveryFaceOnce) {
   const auto s = bvh.stats();
   EXPECT_EQ(s.faces, m.nFaces());
   EXPECT_LE(s.maxDepth, 12u);                                       // 1280 faces, leaves of <= 4: a balanced tree
-  EXPECT_TRUE(nearVec(bvh.bounds().max, Vector3d(1, 1, 1), 1e-6));  // boxes are floats rounded outwards
+  EXPECT_TRUE(nearVec(bvh.bounds().max, Vector3d(1, 1, 1), 1e-5));  // floats rounded outwards, grown by pad()
 }
 
 TEST(TriangleBvh, QueriesEqualBruteForceOnSeveralMeshes) {
