@@ -165,11 +165,16 @@ struct View {
   const Spring* springs = nullptr;
   std::size_t nSprings = 0;
   std::size_t n = 0;
+  const std::uint32_t* first = nullptr;  // CSR by lower vertex (see Cache)
+  const std::uint32_t* other = nullptr;
+  const double* rest = nullptr;
+  const double* k = nullptr;
   const Vec3* home = nullptr;
   const Vec3* ext = nullptr;
   const double* invMass = nullptr;
   const double* mass = nullptr;
   double homeK = 0, c = 0;
+  double maxVertexStiffness = 0;
   Vec3 g = Vec3::Zero();
 };
 
@@ -180,26 +185,77 @@ mesh::VertexProperty<T> requireV(const mesh::SurfaceMesh& m, const char* name) {
   return p;
 }
 
+constexpr std::size_t kChunk = 256;  // springs per gather/compute/scatter chunk
+
+// One O(V + E) pass over the mesh's arrays (a cut costs the physics about this much).
 // Returns true when the cache was rebuilt.
 bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
   Cache& c = s.cache;
   if (c.topologyVersion == m.topologyVersion() && c.nVertexSlots == m.verticesSize()) return false;
   if (!hasTissueProperties(m)) throw MissingPropertyError(kHomeProp);
-  const auto rest = m.getEdgeProperty<double>(kRestProp);
-  const auto k = m.getEdgeProperty<double>(kStiffnessProp);
-  const auto mass = m.getVertexProperty<double>(kMassProp);
-  c.springs.clear();
-  c.springs.reserve(m.nEdges());
-  for (mesh::Edge e : m.edges()) c.springs.push_back({m.vertex(e, 0).idx(), m.vertex(e, 1).idx(), rest[e], k[e]});
+  const auto& restP = m.getEdgeProperty<double>(kRestProp).vector();
+  const auto& kP = m.getEdgeProperty<double>(kStiffnessProp).vector();
+  const auto& massP = m.getVertexProperty<double>(kMassProp).vector();
   const std::size_t n = m.verticesSize();
   c.nVertexSlots = n;
+  // Counting sort of the springs by their lower vertex.
+  c.first.assign(n + 1, 0);
+  for (mesh::Edge e : m.edges()) {
+    const std::uint32_t a = m.vertex(e, 0).idx(), b = m.vertex(e, 1).idx();
+    ++c.first[std::min(a, b) + 1];
+  }
+  c.maxOut = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    c.maxOut = std::max<std::size_t>(c.maxOut, c.first[i + 1]);
+    c.first[i + 1] += c.first[i];
+  }
+  const std::size_t ns = c.first[n];
+  c.other.resize(ns);
+  c.rest.resize(ns);
+  c.k.resize(ns);
+  {
+    std::vector<std::uint32_t> fill(c.first.begin(), c.first.end() - 1);
+    for (mesh::Edge e : m.edges()) {
+      const std::uint32_t a = m.vertex(e, 0).idx(), b = m.vertex(e, 1).idx();
+      const std::uint32_t pos = fill[std::min(a, b)]++;
+      c.other[pos] = std::max(a, b);
+      c.rest[pos] = restP[e.idx()];
+      c.k[pos] = kP[e.idx()];
+    }
+  }
+  // Each vertex's springs by the other vertex (insertion sort: a handful each).
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t s1 = c.first[i] + 1; s1 < c.first[i + 1]; ++s1)
+      for (std::uint32_t t = s1; t > c.first[i] && c.other[t - 1] > c.other[t]; --t) {
+        std::swap(c.other[t - 1], c.other[t]);
+        std::swap(c.rest[t - 1], c.rest[t]);
+        std::swap(c.k[t - 1], c.k[t]);
+      }
+  c.springs.resize(ns);
+  std::vector<double> stiff(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
+      c.springs[q] = {static_cast<std::uint32_t>(i), c.other[q], c.rest[q], c.k[q]};
+      stiff[i] += c.k[q];
+      stiff[c.other[q]] += c.k[q];
+    }
+  c.maxVertexStiffness = n ? *std::max_element(stiff.begin(), stiff.end()) : 0.0;
   c.invMass.assign(n, 0.0);
   c.mass.assign(n, 0.0);
   for (mesh::Vertex v : m.vertices()) {
-    c.mass[v.idx()] = mass[v];
-    c.invMass[v.idx()] = mass[v] > 0 ? 1.0 / mass[v] : 0.0;
+    c.mass[v.idx()] = massP[v.idx()];
+    c.invMass[v.idx()] = massP[v.idx()] > 0 ? 1.0 / massP[v.idx()] : 0.0;
   }
-  for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb}) buf->assign(n, Vec3::Zero());
+  // Two-thread split: about half of the work (springs + vertices) on each side.
+  c.splitVertex = 0;
+  while (c.splitVertex < n && 2 * (c.first[c.splitVertex] + c.splitVertex) < ns + n) ++c.splitVertex;
+  c.cross.clear();
+  for (std::size_t i = 0; i < c.splitVertex; ++i)
+    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q)
+      if (c.other[q] >= c.splitVertex) c.cross.push_back(q);
+  const std::size_t cap = std::max(kChunk, c.maxOut);
+  for (auto& ch : c.chunk) ch.assign(6 * cap, 0.0);
+  for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->assign(n, Vec3::Zero());
   c.forceZero = true;
   c.topologyVersion = m.topologyVersion();
   ++c.rebuilds;
@@ -225,75 +281,198 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
   w.springs = c.springs.data();
   w.nSprings = c.springs.size();
   w.n = c.nVertexSlots;
+  w.first = c.first.data();
+  w.other = c.other.data();
+  w.rest = c.rest.data();
+  w.k = c.k.data();
   w.home = m.getVertexProperty<Vec3>(kHomeProp).vector().data();
   w.ext = m.getVertexProperty<Vec3>(kForceProp).vector().data();
   w.invMass = c.invMass.data();
   w.mass = c.mass.data();
   w.homeK = p.tissue.homeK;
   w.c = p.tissue.damping;
+  w.maxVertexStiffness = c.maxVertexStiffness;
   w.g = p.tissue.gravity;
   return w;
 }
 
-// Spring forces of springs [begin, end) scattered into f; returns their energy.
-// Springs are sorted by their first vertex, so the first vertex's force is summed in
-// registers and stored once per run (no store-to-load chain through f[i]).
-double springRange(const View& w, const Vec3* x, Vec3* f, std::size_t begin, std::size_t end) {
+inline const double* raw(const Vec3* p) { return p->data(); }
+inline double* raw(Vec3* p) { return p->data(); }
+
+// In: q[t] = squared length of spring t; out: q[t] = k(l − rest)/l (0 for l = 0), the
+// factor that turns the difference vector into the lower vertex's force. Returns the
+// springs' energy. Two springs at a time (SSE2 is part of x86-64).
+double springFactors(const double* __restrict rest, const double* __restrict k, double* __restrict q, std::size_t m) {
+  std::size_t t = 0;
   double pe = 0.0;
-  std::size_t s = begin;
-  while (s < end) {
-    const std::uint32_t i = w.springs[s].i;
-    const Vec3 xi = x[i];
-    Vec3 acc = Vec3::Zero();
-    for (; s < end && w.springs[s].i == i; ++s) {
-      const Spring& sp = w.springs[s];
-      const Vec3 d = x[sp.j] - xi;
-      const double l = d.norm();
-      const double stretch = l - sp.rest;
-      pe += 0.5 * sp.k * stretch * stretch;
-      if (l > 0.0) {
-        const Vec3 fi = (sp.k * stretch / l) * d;
-        acc += fi;
-        f[sp.j] -= fi;
+#ifdef __SSE2__
+  __m128d pe2 = _mm_setzero_pd();
+  const __m128d zero = _mm_setzero_pd();
+  for (; t + 2 <= m; t += 2) {
+    const __m128d l = _mm_sqrt_pd(_mm_loadu_pd(q + t));
+    const __m128d st = _mm_sub_pd(l, _mm_loadu_pd(rest + t));
+    const __m128d kst = _mm_mul_pd(_mm_loadu_pd(k + t), st);
+    pe2 = _mm_add_pd(pe2, _mm_mul_pd(kst, st));
+    _mm_storeu_pd(q + t, _mm_and_pd(_mm_div_pd(kst, l), _mm_cmpgt_pd(l, zero)));
+  }
+  double lanes[2];
+  _mm_storeu_pd(lanes, pe2);
+  pe = lanes[0] + lanes[1];
+#endif
+  for (; t < m; ++t) {
+    const double l = std::sqrt(q[t]);
+    const double kst = k[t] * (l - rest[t]);
+    pe += kst * (l - rest[t]);
+    q[t] = l > 0.0 ? kst / l : 0.0;
+  }
+  return 0.5 * pe;
+}
+
+// The spring sweep over the vertices [vBegin, vEnd) at positions x. Forces on higher
+// vertices are scattered into f (only below writeLimit: the first of two threads
+// leaves the crossing springs' far ends to the second); as soon as vertex i's force
+// is complete, finish(i, fx, fy, fz) gets it and f[i] is zeroed for the next sweep.
+// Returns the energy of the sweep's springs. Processed in chunks: gather the
+// difference vectors, compute the factors two at a time, scatter.
+template <class Finish>
+double springSweep(const View& w, const double* __restrict x, double* __restrict f, double* __restrict scratch,
+                   std::size_t cap, std::size_t vBegin, std::size_t vEnd, std::size_t writeLimit, Finish&& finish) {
+  double* __restrict dx = scratch;
+  double* __restrict dy = scratch + cap;
+  double* __restrict dz = scratch + 2 * cap;
+  double* __restrict q = scratch + 3 * cap;
+  const std::uint32_t* __restrict first = w.first;
+  const std::uint32_t* __restrict other = w.other;
+  double pe = 0.0;
+  std::size_t v0 = vBegin;
+  while (v0 < vEnd) {
+    // Take vertices while their springs fit (at least one vertex).
+    std::size_t v1 = v0 + 1;
+    const std::uint32_t sBase = first[v0];
+    while (v1 < vEnd && first[v1 + 1] - sBase <= cap) ++v1;
+    const std::size_t m = first[v1] - sBase;
+    for (std::size_t i = v0; i < v1; ++i) {
+      const double xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
+      for (std::uint32_t s = first[i]; s < first[i + 1]; ++s) {
+        const std::size_t j = other[s], t = s - sBase;
+        const double ax = x[3 * j] - xi, ay = x[3 * j + 1] - yi, az = x[3 * j + 2] - zi;
+        dx[t] = ax;
+        dy[t] = ay;
+        dz[t] = az;
+        q[t] = ax * ax + ay * ay + az * az;
       }
     }
-    f[i] += acc;
-  }
-  return pe;
-}
-
-// All spring forces scattered into f (which must be zeroed); returns their energy.
-double springForces(const View& w, const Vec3* x, Vec3* f) { return springRange(w, x, f, 0, w.nSprings); }
-
-// Full force (damping with v unless v is null); returns spring + home energy.
-double totalForces(const View& w, const Vec3* x, const Vec3* v, Vec3* f) {
-  for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
-  double pe = springForces(w, x, f);
-  for (std::size_t i = 0; i < w.n; ++i) {
-    if (w.invMass[i] == 0.0) {
-      f[i].setZero();
-      continue;
+    pe += springFactors(w.rest + sBase, w.k + sBase, q, m);
+    for (std::size_t i = v0; i < v1; ++i) {
+      double fx = 0.0, fy = 0.0, fz = 0.0;
+      for (std::uint32_t s = first[i]; s < first[i + 1]; ++s) {
+        const std::size_t j = other[s], t = s - sBase;
+        const double gx = q[t] * dx[t], gy = q[t] * dy[t], gz = q[t] * dz[t];
+        fx += gx;
+        fy += gy;
+        fz += gz;
+        if (j < writeLimit) {
+          f[3 * j] -= gx;
+          f[3 * j + 1] -= gy;
+          f[3 * j + 2] -= gz;
+        }
+      }
+      fx = f[3 * i] + fx;
+      fy = f[3 * i + 1] + fy;
+      fz = f[3 * i + 2] + fz;
+      f[3 * i] = f[3 * i + 1] = f[3 * i + 2] = 0.0;
+      finish(i, fx, fy, fz);
     }
-    const Vec3 dh = x[i] - w.home[i];
-    pe += 0.5 * w.homeK * dh.squaredNorm();
-    f[i] += w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
-    if (v) f[i] -= (w.c * w.mass[i]) * v[i];
+    v0 = v1;
   }
   return pe;
 }
 
-// Spring and home energy at x (no forces).
-double potential(const View& w, const Vec3* x) {
+// The second thread's share of the crossing springs: their far ends' forces, added to
+// f before its sweep (in spring order, so each vertex's sum matches one thread's).
+void crossSprings(const View& w, const std::uint32_t* list, std::size_t count, const double* __restrict x,
+                  double* __restrict f, double* __restrict scratch, std::size_t cap) {
+  double* __restrict dx = scratch;
+  double* __restrict dy = scratch + cap;
+  double* __restrict dz = scratch + 2 * cap;
+  double* __restrict q = scratch + 3 * cap;
+  double* __restrict rs = scratch + 4 * cap;  // rest and k gathered (scratch has room: see below)
+  double* __restrict ks = rs + cap;
+  for (std::size_t b = 0; b < count; b += cap) {
+    const std::size_t m = std::min(cap, count - b);
+    for (std::size_t t = 0; t < m; ++t) {
+      const std::uint32_t s = list[b + t];
+      const Spring& sp = w.springs[s];
+      const double ax = x[3 * sp.j] - x[3 * sp.i], ay = x[3 * sp.j + 1] - x[3 * sp.i + 1],
+                   az = x[3 * sp.j + 2] - x[3 * sp.i + 2];
+      dx[t] = ax;
+      dy[t] = ay;
+      dz[t] = az;
+      q[t] = ax * ax + ay * ay + az * az;
+      rs[t] = sp.rest;
+      ks[t] = sp.k;
+    }
+    (void)springFactors(rs, ks, q, m);
+    for (std::size_t t = 0; t < m; ++t) {
+      const std::uint32_t j = w.springs[list[b + t]].j;
+      f[3 * j] -= q[t] * dx[t];
+      f[3 * j + 1] -= q[t] * dy[t];
+      f[3 * j + 2] -= q[t] * dz[t];
+    }
+  }
+}
+
+struct PotentialParts {
+  double spring = 0, home = 0;
+};
+
+// Full force into f (damping with v unless v is null; f need not be zeroed).
+PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec3* v, Vec3* f) {
+  // The sweep scatters into a zeroed buffer and writes each finished total into f.
+  std::vector<Vec3>& acc = c.scatter;
+  PotentialParts e;
+  double home = 0.0;
+  const std::size_t cap = c.chunk[0].size() / 6;
+  e.spring = springSweep(w, raw(x), raw(acc.data()), c.chunk[0].data(), cap, 0, w.n, w.n,
+                         [&](std::size_t i, double fx, double fy, double fz) {
+                           if (w.invMass[i] == 0.0) {
+                             f[i].setZero();
+                             return;
+                           }
+                           const Vec3 dh = x[i] - w.home[i];
+                           home += 0.5 * w.homeK * dh.squaredNorm();
+                           f[i] = Vec3(fx, fy, fz) + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
+                           if (v) f[i] -= (w.c * w.mass[i]) * v[i];
+                         });
+  e.home = home;
+  return e;
+}
+
+double totalForces(const View& w, Cache& c, const Vec3* x, const Vec3* v, Vec3* f) {
+  const PotentialParts e = totalForceParts(w, c, x, v, f);
+  return e.spring + e.home;
+}
+
+// Spring energy at x (no forces).
+double springPotential(const View& w, const Vec3* x) {
   double pe = 0.0;
   for (std::size_t s = 0; s < w.nSprings; ++s) {
     const Spring& sp = w.springs[s];
     const double stretch = (x[sp.j] - x[sp.i]).norm() - sp.rest;
     pe += 0.5 * sp.k * stretch * stretch;
   }
+  return pe;
+}
+
+double homePotential(const View& w, const Vec3* x) {
+  double pe = 0.0;
   for (std::size_t i = 0; i < w.n; ++i)
     if (w.invMass[i] != 0.0) pe += 0.5 * w.homeK * (x[i] - w.home[i]).squaredNorm();
   return pe;
 }
+
+// Spring and home energy at x (no forces).
+double potential(const View& w, const Vec3* x) { return springPotential(w, x) + homePotential(w, x); }
 
 double kinetic(const View& w, const Vec3* v) {
   double ke = 0.0;
@@ -349,7 +528,7 @@ double nextBudget(const StabilityOptions& o, double budget, const Check& c, E0 e
 
 E0 explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
   c.forceZero = false;
-  const double pe = totalForces(w, x0, v0, c.f.data());
+  const double pe = totalForces(w, c, x0, v0, c.f.data());
   for (std::size_t i = 0; i < w.n; ++i) {
     x1[i] = x0[i] + dt * v0[i];
     v1[i] = v0[i] + (dt * w.invMass[i]) * c.f[i];
@@ -357,89 +536,162 @@ E0 explicitEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* 
   return {pe, kinetic(w, v0)};
 }
 
-// The symplectic step's vertex pass over [begin, end): consumes f (and zeroes it for
-// the next step), returns the home energy and the kinetic energy at v0.
-E0 symplecticVertices(const View& w, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, Vec3* f, double dt,
-                      std::size_t begin, std::size_t end) {
-  double pe = 0.0, ke = 0.0;
-  const double damp = 1.0 - dt * w.c;
-  for (std::size_t i = begin; i < end; ++i) {
-    const double im = w.invMass[i];
-    const Vec3 dh = x0[i] - w.home[i];
-    pe += 0.5 * w.homeK * dh.squaredNorm();
-    ke += 0.5 * w.mass[i] * v0[i].squaredNorm();
-    if (im == 0.0) {
-      x1[i] = x0[i];
-      v1[i].setZero();
-    } else {
-      const Vec3 a = im * (f[i] + w.ext[i] - w.homeK * dh) + w.g;
-      v1[i] = damp * v0[i] + dt * a;
-      x1[i] = x0[i] + dt * v1[i];
-    }
-    f[i].setZero();
+// What the symplectic sweep adds up on the way (the monitor's inputs). A value that
+// is not finite in x1 or v1 makes ke1 or home1 not finite.
+struct SweepSums {
+  double spring0 = 0;  // spring energy at x0
+  double ke1 = 0;      // kinetic energy at v1
+  double home1 = 0;    // home energy at x1
+  double v2 = 0;       // Σ |v1|² (Σ |x1 − x0|² = dt²·v2)
+  double work = 0;     // external work (ext + gravity)·(x1 − x0)
+  double vmax2 = 0;    // largest |v1|²
+  // Energy at (x0, v0) apart from the springs: only needed when the monitor has no
+  // budget yet, so it is a separate pass then (startEnergy).
+  double home0 = 0, ke0 = 0;
+  void add(const SweepSums& o) {
+    spring0 += o.spring0;
+    ke1 += o.ke1;
+    home1 += o.home1;
+    v2 += o.v2;
+    work += o.work;
+    vmax2 = std::max(vmax2, o.vmax2);
   }
-  return {pe, ke};
-}
+};
 
-struct SymplecticJob {
+struct SymplecticArgs {
   const View* w;
   const Vec3 *x0, *v0;
   Vec3 *x1, *v1, *f;
   double dt;
-  std::size_t sBegin, sEnd, vBegin, vEnd;
-  int phase;
-  double pe, ke;
+};
+
+// Vertices [vBegin, vEnd) of the symplectic step: springs, integration, sums.
+SweepSums symplecticSweep(const SymplecticArgs& a, double* scratch, std::size_t cap, std::size_t vBegin,
+                          std::size_t vEnd, std::size_t writeLimit) {
+  const View& w = *a.w;
+  const double dt = a.dt, damp = 1.0 - dt * w.c, homeK = w.homeK;
+  const double gx = w.g.x(), gy = w.g.y(), gz = w.g.z();
+  const double* __restrict x0 = raw(a.x0);
+  const double* __restrict v0 = raw(a.v0);
+  double* __restrict x1 = raw(a.x1);
+  double* __restrict v1 = raw(a.v1);
+  const double* __restrict home = raw(w.home);
+  const double* __restrict ext = raw(w.ext);
+  const double* __restrict invMass = w.invMass;
+  const double* __restrict mass = w.mass;
+  SweepSums s;
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, vmax2 = 0;
+  s.spring0 = springSweep(
+      w, x0, raw(a.f), scratch, cap, vBegin, vEnd, writeLimit, [&](std::size_t i, double fx, double fy, double fz) {
+        const double im = invMass[i], m = mass[i];
+        const double live = im != 0.0 ? 1.0 : 0.0;
+        const std::size_t b = 3 * i;
+        const double hx = x0[b] - home[b], hy = x0[b + 1] - home[b + 1], hz = x0[b + 2] - home[b + 2];
+        const double ux = live * (damp * v0[b] + dt * (im * (fx + ext[b] - homeK * hx) + gx));
+        const double uy = live * (damp * v0[b + 1] + dt * (im * (fy + ext[b + 1] - homeK * hy) + gy));
+        const double uz = live * (damp * v0[b + 2] + dt * (im * (fz + ext[b + 2] - homeK * hz) + gz));
+        const double ex = dt * ux, ey = dt * uy, ez = dt * uz;
+        const double px = x0[b] + ex, py = x0[b + 1] + ey, pz = x0[b + 2] + ez;
+        v1[b] = ux;
+        v1[b + 1] = uy;
+        v1[b + 2] = uz;
+        x1[b] = px;
+        x1[b + 1] = py;
+        x1[b + 2] = pz;
+        const double u2 = ux * ux + uy * uy + uz * uz;
+        ke1 += m * u2;
+        v2 += u2;
+        vmax2 = std::max(vmax2, u2);
+        work += (ext[b] + m * gx) * ex + (ext[b + 1] + m * gy) * ey + (ext[b + 2] + m * gz) * ez;
+        const double qx = px - home[b], qy = py - home[b + 1], qz = pz - home[b + 2];
+        home1 += live * (qx * qx + qy * qy + qz * qz);
+      });
+  s.ke1 = 0.5 * ke1;
+  s.home1 = 0.5 * homeK * home1;
+  s.v2 = v2;
+  s.work = work;
+  s.vmax2 = vmax2;
+  return s;
+}
+
+struct SymplecticJob {
+  const SymplecticArgs* args;
+  Cache* c;
+  SweepSums sums;
   static void run(void* p) {
     auto* j = static_cast<SymplecticJob*>(p);
-    if (j->phase == 0) {
-      j->pe = springRange(*j->w, j->x0, j->f, j->sBegin, j->sEnd);
-    } else {
-      const E0 e = symplecticVertices(*j->w, j->x0, j->v0, j->x1, j->v1, j->f, j->dt, j->vBegin, j->vEnd);
-      j->pe = e.pe;
-      j->ke = e.ke;
-    }
+    Cache& c = *j->c;
+    const std::size_t cap = c.chunk[1].size() / 6;
+    crossSprings(*j->args->w, c.cross.data(), c.cross.size(), raw(j->args->x0), raw(j->args->f), c.chunk[1].data(),
+                 cap);
+    j->sums = symplecticSweep(*j->args, c.chunk[1].data(), cap, c.splitVertex, j->args->w->n, j->args->w->n);
   }
 };
 
-E0 symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
-                   int threads) {
+// v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one sweep (two threads: each
+// sweeps its half; the second adds the crossing springs' far ends first, so the result
+// is bit-identical to one thread).
+SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
+                          int threads) {
   Vec3* f = c.f.data();
   if (!c.forceZero)
     for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
-  E0 e;
+  c.forceZero = false;
+  const SymplecticArgs args{&w, x0, v0, x1, v1, f, dt};
+  SweepSums sums;
   if (threads < 2 || w.n < 2048) {
-    e.pe = springRange(w, x0, f, 0, w.nSprings);
-    const E0 ev = symplecticVertices(w, x0, v0, x1, v1, f, dt, 0, w.n);
-    e.pe += ev.pe;
-    e.ke = ev.ke;
+    sums = symplecticSweep(args, c.chunk[0].data(), c.chunk[0].size() / 6, 0, w.n, w.n);
   } else {
-    // Phase 0: the two spring groups in parallel (they touch disjoint vertices), then
-    // the crossing springs here; phase 1: the two vertex halves in parallel.
     detail::Worker& worker = c.worker.get();
-    SymplecticJob job{&w, x0, v0, x1, v1, f, dt, c.splitA, c.splitB, c.splitVertex, w.n, 0, 0.0, 0.0};
+    SymplecticJob job{&args, &c, {}};
     worker.start(&SymplecticJob::run, &job);
-    e.pe = springRange(w, x0, f, 0, c.splitA);
+    sums = symplecticSweep(args, c.chunk[0].data(), c.chunk[0].size() / 6, 0, c.splitVertex, c.splitVertex);
     worker.wait();
-    e.pe += job.pe + springRange(w, x0, f, c.splitB, w.nSprings);
-    job.phase = 1;
-    worker.start(&SymplecticJob::run, &job);
-    const E0 ev = symplecticVertices(w, x0, v0, x1, v1, f, dt, 0, c.splitVertex);
-    worker.wait();
-    e.pe += ev.pe + job.pe;
-    e.ke = ev.ke + job.ke;
+    // The first half's springs include the crossing ones; the second's energy is its own.
+    sums.add(job.sums);
   }
   c.forceZero = true;
-  return e;
+  return sums;
+}
+
+// The monitor's test from the sweep's sums. The spring energy after the step is
+// bounded without another pass: each spring's length changes by at most
+// |dx_i| + |dx_j|, so E_spring(x1) ≤ (√E_spring(x0) + √(K·Σ|dx|²))² with K the largest
+// sum of stiffnesses at a vertex. Only when that bound does not clear the limit is
+// the exact energy computed (one more pass), so the decision is the exact one.
+// Home and kinetic energy at (x0, v0).
+void startEnergy(const View& w, const Vec3* x0, const Vec3* v0, SweepSums& s) {
+  s.home0 = homePotential(w, x0);
+  s.ke0 = kinetic(w, v0);
+}
+
+bool finiteSums(const SweepSums& s) { return std::isfinite(s.ke1 + s.home1 + s.spring0 + s.work); }
+
+Check checkSymplectic(const StabilityOptions& o, const View& w, const Vec3* x1, const SweepSums& s, double budget,
+                      double dt) {
+  Check r;
+  r.work = std::max(s.work, 0.0);
+  if (!finiteSums(s)) return {false, "non-finite", 0, 0};
+  if (!o.enabled) return r;
+  if (s.vmax2 > o.maxSpeed * o.maxSpeed) return {false, "speed", 0, 0};
+  const double ref = std::isfinite(budget) ? budget : s.spring0 + s.home0 + s.ke0;
+  const double limit = (1.0 + o.energyJump) * ref + r.work + o.absoluteSlack;
+  const double root = std::sqrt(s.spring0) + dt * std::sqrt(w.maxVertexStiffness * s.v2);
+  r.energy = s.ke1 + s.home1 + s.spring0;  // estimate (springs at x0) for the budget
+  if (s.ke1 + s.home1 + root * root <= limit) return r;
+  r.energy = s.ke1 + s.home1 + springPotential(w, x1);
+  if (r.energy > limit) return {false, "energy jump", 0, 0};
+  return r;
 }
 
 E0 verlet(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
   c.forceZero = false;
-  const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
+  const E0 e0{totalForces(w, c, x0, v0, c.f.data()), kinetic(w, v0)};
   for (std::size_t i = 0; i < w.n; ++i) {
     v1[i] = v0[i] + (0.5 * dt * w.invMass[i]) * c.f[i];  // half kick (v1 holds v_half)
     x1[i] = x0[i] + dt * v1[i];
   }
-  totalForces(w, x1, nullptr, c.f2.data());
+  totalForces(w, c, x1, nullptr, c.f2.data());
   // Second half kick with the damping taken at the end velocity (keeps order 2).
   const double denom = 1.0 + 0.5 * dt * w.c;
   for (std::size_t i = 0; i < w.n; ++i) v1[i] = (v1[i] + (0.5 * dt * w.invMass[i]) * c.f2[i]) / denom;
@@ -451,7 +703,7 @@ E0 rk4(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* 
   const std::size_t n = w.n;
   for (auto* b : {&c.k1x, &c.k1v, &c.k2x, &c.k2v, &c.k3x, &c.k3v, &c.k4x, &c.k4v, &c.xt, &c.vt}) b->resize(n);
   auto deriv = [&](const Vec3* x, const Vec3* v, std::vector<Vec3>& kx, std::vector<Vec3>& kv) {
-    const double pe = totalForces(w, x, v, c.f.data());
+    const double pe = totalForces(w, c, x, v, c.f.data());
     for (std::size_t i = 0; i < n; ++i) {
       kx[i] = v[i];
       kv[i] = w.invMass[i] * c.f[i];
@@ -486,7 +738,7 @@ E0 implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, const
                  double dt) {
   c.forceZero = false;
   const std::size_t n = w.n;
-  const E0 e0{totalForces(w, x0, v0, c.f.data()), kinetic(w, v0)};
+  const E0 e0{totalForces(w, c, x0, v0, c.f.data()), kinetic(w, v0)};
   using Trip = Eigen::Triplet<double>;
   std::vector<Trip> trips;
   trips.reserve(n * 3 + w.nSprings * 36);
@@ -550,8 +802,11 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
   switch (m) {
     case Method::ExplicitEuler:
       return explicitEuler(w, c, x0, v0, x1, v1, dt);
-    case Method::SymplecticEuler:
-      return symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads);
+    case Method::SymplecticEuler: {
+      SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads);
+      startEnergy(w, x0, v0, s);
+      return {s.spring0 + s.home0, s.ke0};
+    }
     case Method::Verlet:
       return verlet(w, c, x0, v0, x1, v1, dt);
     case Method::Rk4:
@@ -560,6 +815,22 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
       return implicitEuler(p, w, c, x0, v0, x1, v1, dt);
   }
   return {};
+}
+
+// One integrator step checked by the monitor.
+struct Outcome {
+  Check chk;
+  E0 e0;
+};
+Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View& w, Cache& c, const Vec3* x0,
+                const Vec3* v0, Vec3* x1, Vec3* v1, double dt, double budget) {
+  if (m == Method::SymplecticEuler) {
+    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads);
+    if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
+    return {checkSymplectic(o, w, x1, s, budget, dt), {s.spring0 + s.home0, s.ke0}};
+  }
+  const E0 e0 = integrate(m, p, w, c, x0, v0, x1, v1, dt);
+  return {checkStep(o, w, x0, x1, v1, e0, budget), e0};
 }
 
 std::vector<Vec3>& velocities(mesh::SurfaceMesh& m) { return requireV<Vec3>(m, kVelocityProp).vector(); }
@@ -573,8 +844,9 @@ bool attemptSubsteps(Method m, const Params& p, const View& w, Dynamics& s, mesh
   std::vector<Vec3> xs(mesh.positions()), vs(velocities(mesh));  // start copy; retries are rare
   double b = *budget;
   for (int k = 0; k < substeps; ++k) {
-    const E0 e0 = integrate(m, p, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h);
-    const Check chk = checkStep(p.stability, w, xs.data(), c.xb.data(), c.vb.data(), e0, b);
+    const Outcome out = advance(m, p, p.stability, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h, b);
+    const Check& chk = out.chk;
+    const E0 e0 = out.e0;
     if (!chk.ok) {
       *reason = chk.reason;
       return false;
@@ -626,11 +898,16 @@ bool rawStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, Met
   prepare(state, mesh);
   const View w = makeView(params, state, mesh);
   Cache& c = state.cache;
-  integrate(method, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
+  bool finite = true;
+  if (method == Method::SymplecticEuler)
+    finite = finiteSums(symplecticEuler(w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(),
+                                        c.vb.data(), dt, params.threads));
+  else
+    integrate(method, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
   commit(state, mesh);
   state.time += dt;
   ++state.steps;
-  return isFinite(mesh);
+  return method == Method::SymplecticEuler ? finite : isFinite(mesh);
 }
 
 StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, double dt);  // active_region.cpp
@@ -652,12 +929,11 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
   const char* reason = "";
   bool ok = false;
   if (sticky == 1) {
-    const E0 e0 =
-        integrate(m, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
-    const Check chk = checkStep(params.stability, w, mesh.positions().data(), c.xb.data(), c.vb.data(), e0, budget);
-    ok = chk.ok;
-    if (ok) budget = nextBudget(params.stability, budget, chk, e0, dt);
-    reason = chk.reason;
+    const Outcome out = advance(m, params, params.stability, w, c, mesh.positions().data(), velocities(mesh).data(),
+                                c.xb.data(), c.vb.data(), dt, budget);
+    ok = out.chk.ok;
+    if (ok) budget = nextBudget(params.stability, budget, out.chk, out.e0, dt);
+    reason = out.chk.reason;
   } else {
     ok = attemptSubsteps(m, params, w, state, mesh, dt, sticky, &budget, &reason);
     info.substeps = sticky;
@@ -706,12 +982,10 @@ Energy energy(const Params& params, const Dynamics& state, const mesh::SurfaceMe
   Dynamics& s = const_cast<Dynamics&>(state);  // the cache is derived data
   ensureCache(s, mesh);
   const View w = makeView(params, s, mesh);
-  std::vector<Vec3> f(w.n, Vec3::Zero());
   Energy e;
   const auto& x = mesh.positions();
-  e.spring = springForces(w, x.data(), f.data());
-  for (std::size_t i = 0; i < w.n; ++i)
-    if (w.invMass[i] != 0.0) e.home += 0.5 * w.homeK * (x[i] - w.home[i]).squaredNorm();
+  e.spring = springPotential(w, x.data());
+  e.home = homePotential(w, x.data());
   e.kinetic = kinetic(w, mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data());
   return e;
 }
@@ -723,7 +997,8 @@ std::vector<Vec3> forces(const Params& params, const Dynamics& state, const mesh
   ensureCache(s, mesh);
   const View w = makeView(params, s, mesh);
   std::vector<Vec3> f(w.n);
-  totalForces(w, mesh.positions().data(), mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data(), f.data());
+  totalForces(w, s.cache, mesh.positions().data(), mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data(),
+              f.data());
   return f;
 }
 
@@ -736,7 +1011,7 @@ double maxResidualForce(const Params& params, const Dynamics& state, const mesh:
   ensureCache(s, mesh);
   const View w = makeView(params, s, mesh);
   std::vector<Vec3> f(w.n);
-  totalForces(w, mesh.positions().data(), nullptr, f.data());
+  totalForces(w, s.cache, mesh.positions().data(), nullptr, f.data());
   double r = 0.0;
   for (const Vec3& u : f) r = std::max(r, u.norm());
   return r;

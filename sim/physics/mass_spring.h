@@ -114,25 +114,36 @@ class WorkerSlot {
 };
 
 struct Spring {
-  std::uint32_t i, j;
+  std::uint32_t i, j;  // i < j
   double rest, k;
 };
-// Compact arrays derived from the mesh, rebuilt when mesh.topologyVersion() changes
-// (or after State::invalidate()). Springs follow edge order, vertices the mesh's
-// vertex order, so memory access follows the mesh.
+// Compact arrays derived from the mesh, rebuilt in one O(V + E) pass when
+// mesh.topologyVersion() changes (or after Dynamics::invalidate()). Every spring is
+// stored once, at its lower vertex (CSR: springs of vertex i are
+// [first[i], first[i+1]), sorted by the other vertex), so a single sweep over the
+// vertices in mesh order finishes each vertex's force as soon as its own springs are
+// done: the symplectic step sums forces, integrates, and does the monitor's
+// bookkeeping in one pass. Memory order follows the mesh's vertex order.
 struct Cache {
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
   std::size_t nVertexSlots = 0;
-  // Springs grouped for two threads: [0, splitA) join vertices below splitVertex,
-  // [splitA, splitB) vertices at or above it, [splitB, end) cross the split.
-  std::vector<Spring> springs;
-  std::size_t splitA = 0, splitB = 0, splitVertex = 0;
+  std::vector<Spring> springs;  // the same springs as a list (other integrators, active region)
+  std::vector<std::uint32_t> first, other;
+  std::vector<double> rest, k;
+  double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
+  // Two threads: vertices [0, splitVertex) and [splitVertex, n); `cross` lists the
+  // springs from the first half to the second (the second thread adds their share).
+  std::size_t splitVertex = 0;
+  std::vector<std::uint32_t> cross;
+  std::size_t maxOut = 0;  // most springs at one vertex
   bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
   WorkerSlot worker;
   std::vector<double> invMass;  // 0 for deleted vertices (they never move)
   std::vector<double> mass;
   // Scratch (kept to avoid allocations per step).
   std::vector<Eigen::Vector3d> f, f2, xb, vb, k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, xt, vt;
+  std::vector<Eigen::Vector3d> scatter;  // zero between sweeps (forces of finished vertices)
+  std::vector<double> chunk[2];          // per-thread spring scratch
   std::uint64_t rebuilds = 0;
 };
 struct ActiveSet {
