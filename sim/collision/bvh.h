@@ -76,8 +76,8 @@ class TriangleBvh {
  public:
   static constexpr int kLeafCapacity = 4;  // faces per leaf block (one cache line)
   static constexpr int kBuildLeafSize = 4;
-  static constexpr std::size_t kMaxDepth = 80;      // deeper after local splits -> rebuild
-  static constexpr double kRebuildFraction = 0.25;  // local edits / faces at build -> rebuild
+  static constexpr std::size_t kMaxDepth = 80;     // deeper after local splits -> rebuild
+  static constexpr double kRebuildFraction = 0.5;  // local edits / faces at build -> rebuild
 
   TriangleBvh() = default;
   explicit TriangleBvh(const mesh::SurfaceMesh& m, const Tolerance& tol = {}) : tol_(tol) { build(m); }

@@ -57,17 +57,40 @@ void CollisionWorld::rebuild(ObjectId id) {
 }
 
 void CollisionWorld::refit() {
-  for (Entry& e : entries_) e.bvh.refit(*e.mesh);
+  for (Entry& e : entries_) {
+    e.current();
+    e.bvh.refit(*e.mesh);
+  }
+}
+
+void CollisionWorld::refitVertices(ObjectId id, std::span<const mesh::Vertex> moved) {
+  Entry& e = entry(id);
+  e.current();
+  e.bvh.refitVertices(*e.mesh, moved);
 }
 
 void CollisionWorld::intersectSegment(const Vector3d& a, const Vector3d& b, std::vector<ObjectHit>& out) const {
   out.clear();
   std::vector<SurfaceHit> hits;
   for (const Entry& e : entries_) {
-    e.bvh.intersectSegment(*e.mesh, a, b, hits);
+    e.current().intersectSegment(*e.mesh, a, b, hits);
     for (const SurfaceHit& h : hits) out.push_back({e.id, h});
   }
   std::stable_sort(out.begin(), out.end(), [](const ObjectHit& x, const ObjectHit& y) { return x.hit.t < y.hit.t; });
+}
+
+std::optional<ObjectHit> CollisionWorld::firstHit(const Vector3d& a, const Vector3d& b) const {
+  std::optional<ObjectHit> best;
+  SurfaceHit h;
+  for (const Entry& e : entries_)
+    if (e.current().firstHit(*e.mesh, a, b, h) && (!best || h.t < best->hit.t)) best = ObjectHit{e.id, h};
+  return best;
+}
+
+bool CollisionWorld::anyHit(const Vector3d& a, const Vector3d& b) const {
+  for (const Entry& e : entries_)
+    if (e.current().anyHit(*e.mesh, a, b)) return true;
+  return false;
 }
 
 std::vector<SegmentContacts> CollisionWorld::query(instruments::Tool tool, const instruments::Pose& pose,
@@ -95,7 +118,7 @@ std::vector<SegmentSweep> CollisionWorld::sweep(instruments::Tool tool, const in
     out[i].before = s0[i];
     out[i].after = s1[i];
     for (const Entry& e : entries_) {
-      SweptContacts c = sweepSegment(*e.mesh, &e.bvh, s0[i].a, s0[i].b, s1[i].a, s1[i].b, ss);
+      SweptContacts c = sweepSegment(*e.mesh, &e.current(), s0[i].a, s0[i].b, s1[i].a, s1[i].b, ss);
       if (!c.faces.empty()) out[i].objects.push_back({e.id, std::move(c)});
     }
   }

@@ -7,7 +7,16 @@
 // where it is while registered (keep tissue objects in unique_ptr or a stable
 // container), or be rebound with rebind() after it moved. A freed piece from
 // cutting is simply added as a new object.
+//
+// Topology follows automatically: every query first brings each object's tree up
+// to date from its mesh's edit journal (TriangleBvh::sync, local per edited face)
+// when the mesh's topology changed. Vertex motion is not versioned: call refit()
+// (all boxes, O(n)) or refitVertices() after the physics moved vertices. Queries
+// are const but may update the trees this way, so a world is not to be queried
+// from several threads at once.
 #include <cstdint>
+#include <optional>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -60,9 +69,11 @@ class CollisionWorld {
   [[nodiscard]] TriangleBvh& bvh(ObjectId id);
 
   // Per step, after physics moved vertices and cutting edited topology:
-  void sync();   // topology of every object (local; see TriangleBvh::sync)
-  void refit();  // boxes of every object, O(triangles)
+  void sync();   // topology of every object (local; see TriangleBvh::sync); queries do it too
+  void refit();  // boxes of every object, O(triangles), no allocation
   void update() { sync(), refit(); }
+  // Only the boxes around these vertices of one object (an active region).
+  void refitVertices(ObjectId id, std::span<const mesh::Vertex> moved);
   // Full rebuild of one object's tree (after mesh.garbageCollection()).
   void rebuild(ObjectId id);
 
@@ -72,6 +83,11 @@ class CollisionWorld {
     intersectSegment(a, b, out);
     return out;
   }
+  // The first contact along a->b over all objects: intersectSegment(a, b).front()
+  // (lowest object id on a tie), found near-to-far with pruning.
+  [[nodiscard]] std::optional<ObjectHit> firstHit(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  // Whether a->b touches any object (stops at the first triangle hit).
+  [[nodiscard]] bool anyHit(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   // Every segment of the tool at the pose (DESIGN.md geometry), with its hits.
   [[nodiscard]] std::vector<SegmentContacts> query(instruments::Tool tool, const instruments::Pose& pose,
                                                    const instruments::Settings& settings = {}) const;
@@ -86,7 +102,11 @@ class CollisionWorld {
   struct Entry {
     ObjectId id = 0;
     const mesh::SurfaceMesh* mesh = nullptr;
-    TriangleBvh bvh;
+    mutable TriangleBvh bvh;  // brought up to date by const queries (see above)
+    const TriangleBvh& current() const {
+      if (bvh.needsSync(*mesh)) bvh.sync(*mesh);
+      return bvh;
+    }
   };
   [[nodiscard]] const Entry& entry(ObjectId id) const;
   Entry& entry(ObjectId id);
