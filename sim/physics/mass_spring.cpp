@@ -164,6 +164,7 @@ namespace {
 struct View {
   const Spring* springs = nullptr;
   std::size_t nSprings = 0;
+  std::size_t nCsr = 0;  // springs [nCsr, nSprings) were added since the last rebuild
   std::size_t n = 0;
   const std::uint32_t* first = nullptr;  // CSR by lower vertex (see Cache)
   const std::uint32_t* other = nullptr;
@@ -187,12 +188,25 @@ mesh::VertexProperty<T> requireV(const mesh::SurfaceMesh& m, const char* name) {
 
 constexpr std::size_t kChunk = 256;  // springs per gather/compute/scatter chunk
 
-// One O(V + E) pass over the mesh's arrays (a cut costs the physics about this much).
-// Returns true when the cache was rebuilt.
-bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
-  Cache& c = s.cache;
-  if (c.topologyVersion == m.topologyVersion() && c.nVertexSlots == m.verticesSize()) return false;
-  if (!hasTissueProperties(m)) throw MissingPropertyError(kHomeProp);
+constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
+
+void noteJournal(Cache& c, const mesh::SurfaceMesh& m) {
+  c.topologyVersion = m.topologyVersion();
+  c.layoutVersion = m.layoutVersion();
+  c.journalV = m.editedVertices().size();
+  c.journalE = m.editedEdges().size();
+  c.journalF = m.editedFaces().size();
+}
+
+void sizeScratch(Cache& c, std::size_t n) {
+  const std::size_t cap = std::max(kChunk, c.maxOut);
+  for (auto& ch : c.chunk)
+    if (ch.size() != 6 * cap) ch.assign(6 * cap, 0.0);
+  for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->resize(n, Vec3::Zero());
+}
+
+// One O(V + E) pass over the mesh's arrays.
+void rebuildCache(Cache& c, const mesh::SurfaceMesh& m) {
   const auto& restP = m.getEdgeProperty<double>(kRestProp).vector();
   const auto& kP = m.getEdgeProperty<double>(kStiffnessProp).vector();
   const auto& massP = m.getVertexProperty<double>(kMassProp).vector();
@@ -213,6 +227,7 @@ bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
   c.other.resize(ns);
   c.rest.resize(ns);
   c.k.resize(ns);
+  std::vector<std::uint32_t> edgeOf(ns);
   {
     std::vector<std::uint32_t> fill(c.first.begin(), c.first.end() - 1);
     for (mesh::Edge e : m.edges()) {
@@ -221,6 +236,7 @@ bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
       c.other[pos] = std::max(a, b);
       c.rest[pos] = restP[e.idx()];
       c.k[pos] = kP[e.idx()];
+      edgeOf[pos] = e.idx();
     }
   }
   // Each vertex's springs by the other vertex (insertion sort: a handful each).
@@ -230,16 +246,21 @@ bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
         std::swap(c.other[t - 1], c.other[t]);
         std::swap(c.rest[t - 1], c.rest[t]);
         std::swap(c.k[t - 1], c.k[t]);
+        std::swap(edgeOf[t - 1], edgeOf[t]);
       }
   c.springs.resize(ns);
-  std::vector<double> stiff(n, 0.0);
+  c.nCsr = ns;
+  c.liveSprings = ns;
+  c.edgeSlot.assign(m.edgesSize(), kNoSlot);
+  c.vertexStiffness.assign(n, 0.0);
   for (std::size_t i = 0; i < n; ++i)
     for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
       c.springs[q] = {static_cast<std::uint32_t>(i), c.other[q], c.rest[q], c.k[q]};
-      stiff[i] += c.k[q];
-      stiff[c.other[q]] += c.k[q];
+      c.edgeSlot[edgeOf[q]] = q;
+      c.vertexStiffness[i] += c.k[q];
+      c.vertexStiffness[c.other[q]] += c.k[q];
     }
-  c.maxVertexStiffness = n ? *std::max_element(stiff.begin(), stiff.end()) : 0.0;
+  c.maxVertexStiffness = n ? *std::max_element(c.vertexStiffness.begin(), c.vertexStiffness.end()) : 0.0;
   c.invMass.assign(n, 0.0);
   c.mass.assign(n, 0.0);
   for (mesh::Vertex v : m.vertices()) {
@@ -253,12 +274,87 @@ bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
   for (std::size_t i = 0; i < c.splitVertex; ++i)
     for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q)
       if (c.other[q] >= c.splitVertex) c.cross.push_back(q);
-  const std::size_t cap = std::max(kChunk, c.maxOut);
-  for (auto& ch : c.chunk) ch.assign(6 * cap, 0.0);
-  for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->assign(n, Vec3::Zero());
+  c.f.assign(n, Vec3::Zero());
+  c.scatter.assign(n, Vec3::Zero());
+  sizeScratch(c, n);
   c.forceZero = true;
-  c.topologyVersion = m.topologyVersion();
   ++c.rebuilds;
+}
+
+// Applies the journal entries since the last update. Returns false when a rebuild is
+// the better choice (too many added springs).
+bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
+  const auto ev = m.editedEdges().subspan(c.journalE);
+  const auto fv = m.editedFaces().subspan(c.journalF);
+  const auto vv = m.editedVertices().subspan(c.journalV);
+  if (c.springs.size() - c.nCsr + ev.size() > std::max<std::size_t>(1024, c.nCsr / 8)) return false;
+  const auto& restP = m.getEdgeProperty<double>(kRestProp).vector();
+  const auto& kP = m.getEdgeProperty<double>(kStiffnessProp).vector();
+  const auto& massP = m.getVertexProperty<double>(kMassProp).vector();
+  const std::size_t n = m.verticesSize(), n0 = c.nVertexSlots;
+  // New vertex slots: no CSR springs, massless until read below.
+  c.first.resize(n + 1, c.first[n0]);
+  c.invMass.resize(n, 0.0);
+  c.mass.resize(n, 0.0);
+  c.vertexStiffness.resize(n, 0.0);
+  c.nVertexSlots = n;
+  c.edgeSlot.resize(m.edgesSize(), kNoSlot);
+  std::vector<std::uint32_t> touched;
+  for (mesh::Vertex v : vv) touched.push_back(v.idx());
+  for (mesh::Face f : fv)
+    for (mesh::Vertex v : m.vertices(f)) touched.push_back(v.idx());
+  auto kill = [&](std::uint32_t slot) {
+    Spring& sp = c.springs[slot];
+    if (sp.k == 0.0 && sp.rest == 0.0) return;
+    c.vertexStiffness[sp.i] -= sp.k;
+    c.vertexStiffness[sp.j] -= sp.k;
+    sp.k = sp.rest = 0.0;
+    if (slot < c.nCsr) c.k[slot] = c.rest[slot] = 0.0;
+    --c.liveSprings;
+  };
+  std::vector<std::uint32_t> seen;
+  seen.reserve(ev.size());
+  for (mesh::Edge e : ev) {
+    const std::uint32_t idx = e.idx();
+    if (std::find(seen.begin(), seen.end(), idx) != seen.end()) continue;
+    seen.push_back(idx);
+    if (c.edgeSlot[idx] != kNoSlot) kill(c.edgeSlot[idx]);
+    c.edgeSlot[idx] = kNoSlot;
+    if (m.isDeleted(e)) continue;
+    const std::uint32_t a = m.vertex(e, 0).idx(), b = m.vertex(e, 1).idx();
+    touched.push_back(a);
+    touched.push_back(b);
+    const Spring sp{std::min(a, b), std::max(a, b), restP[idx], kP[idx]};
+    c.edgeSlot[idx] = static_cast<std::uint32_t>(c.springs.size());
+    c.springs.push_back(sp);
+    c.vertexStiffness[sp.i] += sp.k;
+    c.vertexStiffness[sp.j] += sp.k;
+    c.maxVertexStiffness = std::max({c.maxVertexStiffness, c.vertexStiffness[sp.i], c.vertexStiffness[sp.j]});
+    ++c.liveSprings;
+  }
+  for (std::uint32_t v : touched) {
+    const double mv = m.isDeleted(mesh::Vertex(v)) ? 0.0 : massP[v];
+    c.mass[v] = mv;
+    c.invMass[v] = mv > 0 ? 1.0 / mv : 0.0;
+  }
+  sizeScratch(c, n);
+  ++c.localUpdates;
+  return true;
+}
+
+// Returns true when the cache changed.
+bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
+  Cache& c = s.cache;
+  const bool sameLayout = c.layoutVersion == m.layoutVersion();
+  if (sameLayout && c.topologyVersion == m.topologyVersion() && c.nVertexSlots == m.verticesSize() &&
+      c.journalE == m.editedEdges().size() && c.journalF == m.editedFaces().size() &&
+      c.journalV == m.editedVertices().size())
+    return false;
+  if (!hasTissueProperties(m)) throw MissingPropertyError(kHomeProp);
+  const bool journalGrew = c.journalE <= m.editedEdges().size() && c.journalF <= m.editedFaces().size() &&
+                           c.journalV <= m.editedVertices().size() && c.nVertexSlots <= m.verticesSize();
+  if (!(sameLayout && journalGrew && updateCache(c, m))) rebuildCache(c, m);
+  noteJournal(c, m);
   s.energyBudget = std::numeric_limits<double>::quiet_NaN();  // cuts change the energy
   return true;
 }
@@ -280,6 +376,7 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
   View w;
   w.springs = c.springs.data();
   w.nSprings = c.springs.size();
+  w.nCsr = c.nCsr;
   w.n = c.nVertexSlots;
   w.first = c.first.data();
   w.other = c.other.data();
@@ -422,6 +519,28 @@ void crossSprings(const View& w, const std::uint32_t* list, std::size_t count, c
   }
 }
 
+// The springs added since the last rebuild, into f at both ends (before the sweep, so
+// one and two threads sum every vertex's force in the same order). Returns their energy.
+double addedSprings(const View& w, const double* __restrict x, double* __restrict f) {
+  double pe = 0.0;
+  for (std::size_t s = w.nCsr; s < w.nSprings; ++s) {
+    const Spring& sp = w.springs[s];
+    const std::size_t i = sp.i, j = sp.j;
+    const double ax = x[3 * j] - x[3 * i], ay = x[3 * j + 1] - x[3 * i + 1], az = x[3 * j + 2] - x[3 * i + 2];
+    const double l = std::sqrt(ax * ax + ay * ay + az * az);
+    const double kst = sp.k * (l - sp.rest);
+    pe += kst * (l - sp.rest);
+    const double q = l > 0.0 ? kst / l : 0.0;
+    f[3 * i] += q * ax;
+    f[3 * i + 1] += q * ay;
+    f[3 * i + 2] += q * az;
+    f[3 * j] -= q * ax;
+    f[3 * j + 1] -= q * ay;
+    f[3 * j + 2] -= q * az;
+  }
+  return 0.5 * pe;
+}
+
 struct PotentialParts {
   double spring = 0, home = 0;
 };
@@ -433,17 +552,18 @@ PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec
   PotentialParts e;
   double home = 0.0;
   const std::size_t cap = c.chunk[0].size() / 6;
-  e.spring = springSweep(w, raw(x), raw(acc.data()), c.chunk[0].data(), cap, 0, w.n, w.n,
-                         [&](std::size_t i, double fx, double fy, double fz) {
-                           if (w.invMass[i] == 0.0) {
-                             f[i].setZero();
-                             return;
-                           }
-                           const Vec3 dh = x[i] - w.home[i];
-                           home += 0.5 * w.homeK * dh.squaredNorm();
-                           f[i] = Vec3(fx, fy, fz) + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
-                           if (v) f[i] -= (w.c * w.mass[i]) * v[i];
-                         });
+  const double added = addedSprings(w, raw(x), raw(acc.data()));
+  e.spring = added + springSweep(w, raw(x), raw(acc.data()), c.chunk[0].data(), cap, 0, w.n, w.n,
+                                 [&](std::size_t i, double fx, double fy, double fz) {
+                                   if (w.invMass[i] == 0.0) {
+                                     f[i].setZero();
+                                     return;
+                                   }
+                                   const Vec3 dh = x[i] - w.home[i];
+                                   home += 0.5 * w.homeK * dh.squaredNorm();
+                                   f[i] = Vec3(fx, fy, fz) + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
+                                   if (v) f[i] -= (w.c * w.mass[i]) * v[i];
+                                 });
   e.home = home;
   return e;
 }
@@ -638,6 +758,7 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
   c.forceZero = false;
   const SymplecticArgs args{&w, x0, v0, x1, v1, f, dt};
+  const double added = addedSprings(w, raw(x0), raw(f));
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
     sums = symplecticSweep(args, c.chunk[0].data(), c.chunk[0].size() / 6, 0, w.n, w.n);
@@ -650,6 +771,7 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     // The first half's springs include the crossing ones; the second's energy is its own.
     sums.add(job.sums);
   }
+  sums.spring0 += added;
   c.forceZero = true;
   return sums;
 }

@@ -117,8 +117,13 @@ struct Spring {
   std::uint32_t i, j;  // i < j
   double rest, k;
 };
-// Compact arrays derived from the mesh, rebuilt in one O(V + E) pass when
-// mesh.topologyVersion() changes (or after Dynamics::invalidate()). Every spring is
+// Compact arrays derived from the mesh. Topology edits are applied locally from the
+// mesh's edit journal (editedVertices/Edges/Faces): a changed or deleted edge's slot
+// is zeroed (k = rest = 0), live edited edges are appended after the CSR part as
+// "added" springs (summed in a short pass before the sweep), and the masses of the
+// touched vertices are re-read. A full O(V + E) rebuild happens on a new
+// layoutVersion() (compaction, copy, assignment), after Dynamics::invalidate(), or
+// when the added springs exceed an eighth of the CSR ones. Every spring is
 // stored once, at its lower vertex (CSR: springs of vertex i are
 // [first[i], first[i+1]), sorted by the other vertex), so a single sweep over the
 // vertices in mesh order finishes each vertex's force as soon as its own springs are
@@ -126,8 +131,17 @@ struct Spring {
 // bookkeeping in one pass. Memory order follows the mesh's vertex order.
 struct Cache {
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t layoutVersion = std::numeric_limits<std::uint64_t>::max();
+  std::size_t journalV = 0, journalE = 0, journalF = 0;  // journal entries applied
   std::size_t nVertexSlots = 0;
-  std::vector<Spring> springs;  // the same springs as a list (other integrators, active region)
+  // All springs as a list (other integrators, active region): [0, nCsr) are the CSR
+  // slots in CSR order, the rest were added since the last rebuild. Dead ones have
+  // k = rest = 0.
+  std::vector<Spring> springs;
+  std::size_t nCsr = 0;
+  std::size_t liveSprings = 0;
+  std::vector<std::uint32_t> edgeSlot;  // edge index → index in springs (or ~0)
+  std::vector<double> vertexStiffness;  // Σ k of the springs at each vertex
   std::vector<std::uint32_t> first, other;
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
@@ -145,6 +159,7 @@ struct Cache {
   std::vector<Eigen::Vector3d> scatter;  // zero between sweeps (forces of finished vertices)
   std::vector<double> chunk[2];          // per-thread spring scratch
   std::uint64_t rebuilds = 0;
+  std::uint64_t localUpdates = 0;
 };
 struct ActiveSet {
   std::vector<std::uint8_t> awake;
@@ -172,6 +187,7 @@ struct Dynamics {
   // Call after changing masses, rest lengths or stiffnesses without a topology edit.
   void invalidate() {
     cache.topologyVersion = std::numeric_limits<std::uint64_t>::max();
+    cache.layoutVersion = std::numeric_limits<std::uint64_t>::max();
     energyBudget = std::numeric_limits<double>::quiet_NaN();
   }
 };
