@@ -1,10 +1,12 @@
 // lapdissect: the desktop program.
 //   lapdissect [--model FILE] [--db URL] [--wireframe] [--no-physics]
-//              [--screenshot OUT.png [--size WxH] [--whole-window]
-//               [--physics [--push X,Y,Z,FX,FY,FZ] [--cut X0,Y0,X1,Y1,DEPTH] [--sim-time S]]]
+//              [--screenshot OUT.png [--size WxH] [--whole-window] [--zoom STEPS] [--orbit YAW,PITCH]
+//               [--physics [--push X,Y,Z,FX,FY,FZ] [--cut X0,Y0,X1,Y1[,...]:DEPTH]...
+//                          [--drag-piece DX,DY,DZ] [--show-scalpel] [--sim-time S]]]
 // With --physics the screenshot is taken after the tissue has settled and run for
 // --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z,
-// and a scalpel stroke across the top from (X0,Y0) to (X1,Y1) DEPTH mm deep);
+// the scalpel strokes across the top along each --cut polyline, DEPTH mm deep, in
+// order, and the pieces they cut free moved by --drag-piece);
 // a JSON line with the simulation's figures goes to stdout.
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
@@ -25,6 +27,8 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "app/gui/main_window.h"
 #include "app/gui/mesh_view.h"
@@ -56,6 +60,44 @@ std::optional<std::size_t> nearestVertex(const ld::gui::RenderMesh& m, const std
   return best;
 }
 #endif
+
+std::optional<std::vector<double>> numbers(const QString& s) {
+  std::vector<double> out;
+  for (const QString& part : s.split(',')) {
+    bool ok = false;
+    out.push_back(part.trimmed().toDouble(&ok));
+    if (!ok || !std::isfinite(out.back())) return std::nullopt;
+  }
+  return out;
+}
+
+struct Stroke {
+  std::vector<QPointF> points;
+  double depth = 0;
+};
+
+// "X0,Y0,X1,Y1[,...]:DEPTH", or the straight "X0,Y0,X1,Y1,DEPTH".
+std::optional<Stroke> parseStroke(const QString& value) {
+  Stroke s;
+  std::optional<std::vector<double>> xy;
+  const QStringList parts = value.split(':');
+  if (parts.size() == 2) {
+    xy = numbers(parts[0]);
+    bool ok = false;
+    s.depth = parts[1].trimmed().toDouble(&ok);
+    if (!ok || !xy || xy->size() < 4 || xy->size() % 2 != 0) return std::nullopt;
+  } else if (parts.size() == 1) {
+    xy = numbers(parts[0]);
+    if (!xy || xy->size() != 5) return std::nullopt;
+    s.depth = xy->back();
+    xy->pop_back();
+  } else {
+    return std::nullopt;
+  }
+  if (!(s.depth > 0.0) || s.depth > 100.0) return std::nullopt;
+  for (std::size_t i = 0; i < xy->size(); i += 2) s.points.emplace_back((*xy)[i], (*xy)[i + 1]);
+  return s;
+}
 
 }  // namespace
 
@@ -102,14 +144,26 @@ int main(int argc, char** argv) {
   const QCommandLineOption zoomOpt(QStringLiteral("zoom"),
                                    QStringLiteral("With --screenshot: zoom in by this many wheel steps after fitting."),
                                    QStringLiteral("STEPS"), QStringLiteral("0"));
-  const QCommandLineOption cutOpt(QStringLiteral("cut"),
-                                  QStringLiteral("With --physics: a scalpel stroke across the top, DEPTH mm deep."),
-                                  QStringLiteral("X0,Y0,X1,Y1,DEPTH"));
+  const QCommandLineOption cutOpt(
+      QStringLiteral("cut"),
+      QStringLiteral("With --physics: a scalpel stroke across the top along the polyline (X,Y pairs) [mm], DEPTH mm "
+                     "deep (deeper than the tissue cuts through). Repeat for more strokes, made in order. "
+                     "X0,Y0,X1,Y1,DEPTH (five numbers) is a straight stroke."),
+      QStringLiteral("X0,Y0,X1,Y1[,...]:DEPTH"));
+  const QCommandLineOption dragOpt(
+      QStringLiteral("drag-piece"),
+      QStringLiteral("With --cut: grasp the pieces the strokes cut free and move them by DX,DY,DZ mm."),
+      QStringLiteral("DX,DY,DZ"));
+  const QCommandLineOption orbitOpt(
+      QStringLiteral("orbit"), QStringLiteral("With --screenshot: camera yaw and pitch in degrees (default -90,50)."),
+      QStringLiteral("YAW,PITCH"));
+  const QCommandLineOption scalpelOpt(QStringLiteral("show-scalpel"),
+                                      QStringLiteral("With --cut: draw the scalpel where the last stroke ended."));
   const QCommandLineOption simTimeOpt(QStringLiteral("sim-time"),
                                       QStringLiteral("With --physics: simulated seconds after settling (default 0.5)."),
                                       QStringLiteral("S"), QStringLiteral("0.5"));
   parser.addOptions({modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt, noPhysicsOpt, physicsOpt, pushOpt, cutOpt,
-                     simTimeOpt, zoomOpt});
+                     dragOpt, simTimeOpt, zoomOpt, orbitOpt, scalpelOpt});
   if (!parser.parse(QApplication::arguments())) {
     printError(parser.errorText());
     return kBadInput;
@@ -141,16 +195,34 @@ int main(int argc, char** argv) {
       return kBadInput;
     }
   }
-  std::array<double, 5> cut{};
-  const bool hasCut = parser.isSet(cutOpt);
-  if (hasCut) {
-    const QStringList parts = parser.value(cutOpt).split(',');
-    bool ok = parts.size() == 5;
-    for (int i = 0; ok && i < 5; ++i) cut[static_cast<std::size_t>(i)] = parts[i].toDouble(&ok);
-    if (!ok || !physics || !(cut[4] > 0.0)) {
-      printError(QStringLiteral("--cut: expected X0,Y0,X1,Y1,DEPTH (five numbers, DEPTH > 0) together with --physics"));
+  std::vector<Stroke> strokes;
+  for (const QString& value : parser.values(cutOpt)) {
+    const auto stroke = parseStroke(value);
+    if (!stroke || !physics) {
+      printError(QStringLiteral("--cut: '%1' is not X0,Y0,X1,Y1[,...]:DEPTH (X,Y pairs, DEPTH > 0 mm) or "
+                                "X0,Y0,X1,Y1,DEPTH, together with --physics")
+                     .arg(value));
       return kBadInput;
     }
+    strokes.push_back(*stroke);
+  }
+  std::optional<QVector3D> drag;
+  if (parser.isSet(dragOpt)) {
+    const auto d = numbers(parser.value(dragOpt));
+    if (!d || d->size() != 3 || strokes.empty()) {
+      printError(QStringLiteral("--drag-piece: expected DX,DY,DZ (three numbers) together with --cut"));
+      return kBadInput;
+    }
+    drag = QVector3D(static_cast<float>((*d)[0]), static_cast<float>((*d)[1]), static_cast<float>((*d)[2]));
+  }
+  std::optional<std::pair<float, float>> orbit;
+  if (parser.isSet(orbitOpt)) {
+    const auto o = numbers(parser.value(orbitOpt));
+    if (!o || o->size() != 2 || std::abs((*o)[1]) > 89.0) {
+      printError(QStringLiteral("--orbit: expected YAW,PITCH in degrees (pitch within +-89)"));
+      return kBadInput;
+    }
+    orbit = std::pair{static_cast<float>((*o)[0]), static_cast<float>((*o)[1])};
   }
   bool simTimeOk = false;
   const double simTime = parser.value(simTimeOpt).toDouble(&simTimeOk);
@@ -185,6 +257,7 @@ int main(int argc, char** argv) {
     if (parser.isSet(dbOpt)) window.openStore();  // a first start creates it; failures only show
     window.view()->setFixedSize(w, h);
     window.show();
+    if (orbit) window.view()->camera().setOrientation(orbit->first, orbit->second);
     window.view()->fitToView();  // the view has its final size only now
     bool zoomOk = false;
     const double zoom = parser.value(zoomOpt).toDouble(&zoomOk);
@@ -215,6 +288,7 @@ int main(int argc, char** argv) {
     wall.start();
     double startTime = -1.0;
     std::optional<std::size_t> pushed;
+    std::size_t cutObjects = 1;
     ld::gui::Vec3f pushedFrom{};
     QTimer poll;
     QObject::connect(&poll, &QTimer::timeout, &window, [&] {
@@ -240,10 +314,28 @@ int main(int argc, char** argv) {
           pushed = nearestVertex(window.view()->mesh(), push);
           if (pushed) pushedFrom = window.view()->mesh().positions[*pushed];
         }
-        if (hasCut && !window.cutAcrossTop(cut[0], cut[1], cut[2], cut[3], cut[4])) {
-          printError(QStringLiteral("--cut: this build has no cutting module (ld_sim_cutting)"));
-          rc = kBadInput;
-          QApplication::quit();
+        for (const Stroke& s : strokes)
+          if (!window.cutStroke(s.points, s.depth)) {
+            printError(QStringLiteral("--cut: this build has no cutting module (ld_sim_cutting)"));
+            rc = kBadInput;
+            QApplication::quit();
+            return;
+          }
+        if (!strokes.empty()) {
+          window.syncPhysics();  // the cuts are made: the pieces exist
+          cutObjects = window.objectCount();
+          if (drag) window.dragPieces(*drag);
+          if (parser.isSet(scalpelOpt)) {
+            const Stroke& last = strokes.back();
+            const QPointF a = last.points[last.points.size() - 2], b = last.points.back();
+            const float z = window.view()->mesh().bounds().max[2];
+            ld::gui::ScalpelPose pose;
+            pose.dir = QVector3D(0, 0, -1);
+            pose.tip =
+                QVector3D(static_cast<float>(b.x()), static_cast<float>(b.y()), z - static_cast<float>(last.depth));
+            pose.up = QVector3D(static_cast<float>(b.x() - a.x()), static_cast<float>(b.y() - a.y()), 0).normalized();
+            window.view()->setScalpel(pose);
+          }
         }
         return;
       }
@@ -252,6 +344,10 @@ int main(int argc, char** argv) {
       window.pollPhysics();
       const ld::gui::RenderMesh& shown = window.view()->mesh();
       const ld::gui::Bounds b = shown.bounds();
+      std::size_t wallTriangles = 0;
+      for (const auto& o : window.view()->objects())
+        wallTriangles += static_cast<std::size_t>(
+            std::count_if(o.faceKind.begin(), o.faceKind.end(), [](auto k) { return k != 0; }));
       // How far the pushed vertex moved since the force was applied [mm].
       std::array<double, 3> moved{0, 0, 0};
       if (pushed)
@@ -260,12 +356,10 @@ int main(int argc, char** argv) {
       std::printf(
           "{\"settled\":true,\"settle_sim_time_s\":%.4f,\"sim_time_s\":%.4f,\"min_z\":%.4f,\"max_z\":%.4f,"
           "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"cut_wall_triangles\":%zu,"
-          "\"triangles_cut\":%ld,\"status\":\"%s\"}\n",
+          "\"triangles_cut\":%ld,\"objects\":%zu,\"objects_after_cuts\":%zu,\"status\":\"%s\"}\n",
           startTime, session->simTime(), static_cast<double>(b.min[2]), static_cast<double>(b.max[2]), moved[0],
-          moved[1], moved[2], shown.positions.size(), shown.triangles.size(),
-          static_cast<std::size_t>(
-              std::count_if(shown.faceKind.begin(), shown.faceKind.end(), [](auto k) { return k != 0; })),
-          session->trianglesCut(), qPrintable(session->status()));
+          moved[1], moved[2], shown.positions.size(), shown.triangles.size(), wallTriangles, session->trianglesCut(),
+          window.objectCount(), cutObjects, qPrintable(session->status()));
       take();
     });
     poll.start(10);

@@ -62,11 +62,25 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   frameTimer_->setInterval(16);  // about 60 frames per second
   connect(frameTimer_, &QTimer::timeout, this, &MainWindow::pollPhysics);
   view_->setPushEnabled(physicsAvailable());
-  connect(view_, &MeshView::pushStarted, this, [this](std::uint32_t v, const QVector3D& p) {
-    pushVertex_ = v;
+  connect(view_, &MeshView::pushStarted, this, [this](std::size_t object, std::uint32_t v, const QVector3D& p) {
+    if (object < shownIds_.size()) pushVertex_ = std::pair{shownIds_[object], v};
     pushTarget_ = p;
   });
   connect(view_, &MeshView::pushMoved, this, [this](const QVector3D& target) { pushTarget_ = target; });
+  connect(view_, &MeshView::graspStarted, this, [this](std::size_t object, const QVector3D& p) {
+    if (object < shownIds_.size()) grasped_ = shownIds_[object];
+    graspLast_ = p;
+  });
+  connect(view_, &MeshView::graspMoved, this, [this](const QVector3D& target) {
+#ifdef LD_GUI_HAVE_PHYSICS
+    if (physics_ && grasped_) {
+      const QVector3D d = target - graspLast_;
+      physics_->movePiece(*grasped_, Eigen::Vector3d(d.x(), d.y(), d.z()));
+    }
+#endif
+    graspLast_ = target;
+  });
+  connect(view_, &MeshView::graspEnded, this, [this] { grasped_.reset(); });
   connect(view_, &MeshView::cutStarted, this, [this](const QVector3D& p, const QVector3D& n) {
     cutting_ = true;
     cutLast_ = p;
@@ -79,7 +93,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     const QVector3D motion = p - cutLast_;
     physics_->cutSample(Eigen::Vector3d(p.x(), p.y(), p.z()),
                         Eigen::Vector3d(cutNormal_.x(), cutNormal_.y(), cutNormal_.z()),
-                        Eigen::Vector3d(motion.x(), motion.y(), motion.z()), cutDepth_ ? cutDepth_->value() : 2.0);
+                        Eigen::Vector3d(motion.x(), motion.y(), motion.z()), view_->cutDepth());
     cutLast_ = p;
 #else
     (void)p;
@@ -114,6 +128,8 @@ void MainWindow::setPhysicsEnabled(bool on) {
 void MainWindow::restartPhysics() {
   physics_.reset();
   pushVertex_.reset();
+  grasped_.reset();
+  shownIds_.assign(1, 0);
   frameTimer_->stop();
   physicsLabel_->setText(physicsAvailable() ? tr("Physics: off") : QString());
 #ifdef LD_GUI_HAVE_PHYSICS
@@ -127,35 +143,72 @@ void MainWindow::restartPhysics() {
 }
 
 bool MainWindow::cutAcrossTop(double x0, double y0, double x1, double y1, double depth) {
+  return cutStroke({QPointF(x0, y0), QPointF(x1, y1)}, depth);
+}
+
+bool MainWindow::cutStroke(const std::vector<QPointF>& xy, double depth) {
 #ifdef LD_GUI_HAVE_PHYSICS
-  if (!physics_ || !PhysicsSession::cuttingAvailable()) return false;
+  if (!physics_ || !PhysicsSession::cuttingAvailable() || xy.size() < 2) return false;
   pollPhysics();
   const Bounds b = view_->mesh().bounds();
-  const Eigen::Vector3d from(x0, y0, b.max[2]), to(x1, y1, b.max[2]);
-  const Eigen::Vector3d motion = to - from;
-  const int n = std::max(1, static_cast<int>(std::ceil(motion.norm() / 0.5)));
-  for (int k = 0; k <= n; ++k)
-    physics_->cutSample(from + (static_cast<double>(k) / n) * motion, Eigen::Vector3d::UnitZ(), motion, depth);
+  const auto z = static_cast<double>(b.max[2]);
+  // Samples every half millimetre along the polyline, the blade's sharp side facing
+  // the motion of each leg.
+  for (std::size_t i = 0; i + 1 < xy.size(); ++i) {
+    const Eigen::Vector3d from(xy[i].x(), xy[i].y(), z), to(xy[i + 1].x(), xy[i + 1].y(), z);
+    const Eigen::Vector3d motion = to - from;
+    const int n = std::max(1, static_cast<int>(std::ceil(motion.norm() / 0.5)));
+    for (int k = i == 0 ? 0 : 1; k <= n; ++k)
+      physics_->cutSample(from + (static_cast<double>(k) / n) * motion, Eigen::Vector3d::UnitZ(), motion, depth);
+  }
   physics_->endCut();
   return true;
 #else
-  (void)x0, (void)y0, (void)x1, (void)y1, (void)depth;
+  (void)xy, (void)depth;
   return false;
 #endif
 }
+
+void MainWindow::dragPieces(const QVector3D& delta) {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (physics_) physics_->moveAllPieces(Eigen::Vector3d(delta.x(), delta.y(), delta.z()));
+#else
+  (void)delta;
+#endif
+}
+
+void MainWindow::syncPhysics() {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (physics_) physics_->sync();
+#endif
+  pollPhysics();
+}
+
+std::size_t MainWindow::objectCount() const { return view_->objects().size(); }
 
 void MainWindow::pollPhysics() {
 #ifdef LD_GUI_HAVE_PHYSICS
   if (!physics_) return;
   if (pushVertex_)
-    physics_->pushToward(*pushVertex_, Eigen::Vector3d(pushTarget_.x(), pushTarget_.y(), pushTarget_.z()));
+    physics_->pushToward(pushVertex_->first, pushVertex_->second,
+                         Eigen::Vector3d(pushTarget_.x(), pushTarget_.y(), pushTarget_.z()));
   bool topologyChanged = false;
-  if (physics_->update(simMesh_, topologyChanged)) {
+  SceneFrame frame;
+  if (physics_->update(frame, topologyChanged)) {
+    std::vector<std::array<Vec3f, 3>> preview;
+    for (const auto& p : frame.preview) preview.push_back({p.from, p.to, p.depth});
+    view_->setPreview(std::move(preview));
     if (topologyChanged) {
-      view_->setMesh(simMesh_, false);
+      shownIds_.clear();
+      std::vector<RenderMesh> meshes;
+      for (auto& o : frame.objects) {
+        shownIds_.push_back(o.id);
+        meshes.push_back(std::move(o.mesh));
+      }
+      view_->setObjects(std::move(meshes), false);
       updateCounts();
     } else {
-      view_->updatePositions(simMesh_.positions);
+      for (std::size_t i = 0; i < frame.objects.size(); ++i) view_->updatePositions(i, frame.objects[i].mesh.positions);
     }
   }
   physicsLabel_->setText(physics_->status());
@@ -209,7 +262,8 @@ void MainWindow::buildMenus() {
     QAction* orbit = sim->addAction(tr("Left drag &orbits"));
     QAction* push = sim->addAction(tr("Left drag &pushes"));
     QAction* cut = sim->addAction(tr("Left drag &cuts (scalpel)"));
-    for (QAction* a : {orbit, push, cut}) {
+    QAction* grasp = sim->addAction(tr("Left drag &grasps a freed piece"));
+    for (QAction* a : {orbit, push, cut, grasp}) {
       a->setCheckable(true);
       group->addAction(a);
     }
@@ -217,15 +271,19 @@ void MainWindow::buildMenus() {
     orbit->setShortcut(QKeySequence(Qt::Key_1));
     push->setShortcut(QKeySequence(Qt::Key_2));
     cut->setShortcut(QKeySequence(Qt::Key_3));
+    grasp->setShortcut(QKeySequence(Qt::Key_4));
     cut->setEnabled(PhysicsSession::cuttingAvailable());
+    grasp->setEnabled(PhysicsSession::cuttingAvailable());
     connect(orbit, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Orbit); });
     connect(push, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Push); });
     connect(cut, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Cut); });
+    connect(grasp, &QAction::triggered, this, [this] { view_->setLeftDrag(LeftDrag::Grasp); });
 
     QToolBar* tools = addToolBar(tr("Tools"));
     tools->addAction(orbit);
     tools->addAction(push);
     tools->addAction(cut);
+    tools->addAction(grasp);
     tools->addSeparator();
     cutDepth_ = new QDoubleSpinBox(this);
     cutDepth_->setRange(0.2, 20.0);
@@ -235,6 +293,8 @@ void MainWindow::buildMenus() {
     cutDepth_->setToolTip(tr("Scalpel depth below the surface (deeper than the tissue cuts through)"));
     tools->addWidget(new QLabel(tr(" Cut depth "), this));
     tools->addWidget(cutDepth_);
+    view_->setCutDepth(cutDepth_->value());
+    connect(cutDepth_, &QDoubleSpinBox::valueChanged, view_, &MeshView::setCutDepth);
   }
 
   QMenu* trainee = menuBar()->addMenu(tr("&Trainee"));
@@ -249,12 +309,12 @@ void MainWindow::buildMenus() {
 
   QMenu* help = menuBar()->addMenu(tr("&Help"));
   help->addAction(tr("&Mouse controls"), this, [this] {
-    QMessageBox::information(
-        this, tr("Mouse controls"),
-        tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
-           "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe\n"
-           "Ctrl + left drag: push or pull the tissue (physics running)\n"
-           "1 / 2 / 3: left drag orbits / pushes / cuts at the toolbar's depth\nSpace: physics on/off"));
+    QMessageBox::information(this, tr("Mouse controls"),
+                             tr("Left drag: orbit\nRight or middle drag, or Shift + left drag: pan\n"
+                                "Wheel: zoom\nDouble click or F: fit to view\nW: wireframe\n"
+                                "Ctrl + left drag: push or pull the tissue (physics running)\n"
+                                "1 / 2 / 3 / 4: left drag orbits / pushes / cuts at the toolbar's depth (the scalpel "
+                                "follows the cursor) / grasps and moves a piece cut free\nSpace: physics on/off"));
   });
   help->addAction(tr("&About"), this, [this] {
     QMessageBox::about(

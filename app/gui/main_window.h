@@ -5,8 +5,12 @@
 #include <QMainWindow>
 #include <QString>
 
+#include <QPointF>
+
 #include <memory>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "app/gui/model_loader.h"
 #ifdef LD_GUI_HAVE_DB
@@ -57,6 +61,15 @@ class MainWindow : public QMainWindow {
   // One straight scalpel stroke across the top of the tissue (scripted cutting):
   // from (x0, y0) to (x1, y1) at `depth` mm below the highest point.
   bool cutAcrossTop(double x0, double y0, double x1, double y1, double depth);
+  // A scalpel stroke along a polyline (x, y pairs) across the top, `depth` mm deep.
+  // Returns false without the cutting module.
+  bool cutStroke(const std::vector<QPointF>& xy, double depth);
+  // Moves every piece cut free so far by `delta` mm (as a grasp would).
+  void dragPieces(const QVector3D& delta);
+  // Blocks until the simulation has run every command sent so far.
+  void syncPhysics();
+  // The objects as last shown: index 0 the tissue, then the pieces cut free.
+  [[nodiscard]] std::size_t objectCount() const;
 
  public slots:
   void openModel();
@@ -91,15 +104,17 @@ class MainWindow : public QMainWindow {
   QAction* physicsAction_ = nullptr;
   QLabel* physicsLabel_ = nullptr;
   QTimer* frameTimer_ = nullptr;
-  RenderMesh simMesh_;
 #ifdef LD_GUI_HAVE_SIM_IO
   std::optional<mesh::SurfaceMesh> original_;  // the model as loaded, to restart from
 #endif
   QDoubleSpinBox* cutDepth_ = nullptr;
   QVector3D cutLast_, cutNormal_;
   bool cutting_ = false;
-  std::optional<std::uint32_t> pushVertex_;
+  std::optional<std::pair<int, std::uint32_t>> pushVertex_;  // object id, vertex
   QVector3D pushTarget_;
+  std::optional<int> grasped_;  // object id of the grasped piece
+  QVector3D graspLast_;
+  std::vector<int> shownIds_;  // object ids in the view's order
 };
 
 }  // namespace ld::gui

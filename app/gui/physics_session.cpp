@@ -1,148 +1,334 @@
 #include "app/gui/physics_session.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <utility>
 #include <vector>
 
-#include "sim/physics/mass_spring.h"
-#include "sim/physics/simulation_loop.h"
+#include "sim/physics/tissue_properties.h"
 #ifdef LD_GUI_HAVE_CUTTING
-#include "app/gui/model_loader.h"
 #include "sim/cutting/cutter.h"
 #include "sim/instruments/instrument.h"
 #else
 namespace ld::cutting {
 class CutEngine {};  // never created: the cutting module is not built
+struct StepResult {};
 }  // namespace ld::cutting
 #endif
 
 namespace ld::gui {
+namespace {
 
-PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh) {
-  physics::Params params;
-  // The default slab has ~1.5 mm edges; at the loop's 1 ms step the thesis's masses
-  // (5 mm thick water) would make the symplectic step unstable (omega * dt > 2), so
-  // the GUI's tissue is five times denser: omega * dt stays about 1.
-  params.tissue.density = 2.5e-5;
-  physics::SimulationLoop::Options options;
-  options.settle.tolerance = 1e-2;  // [mN]: visually at rest
-  options.settle.maxTime = 5.0;
-  options.rateHz = 1000.0;
-  options.publishHz = 60.0;
-  options.settleFirst = true;
-  physics::State state = physics::makeState(std::move(mesh), params.tissue);
-#ifdef LD_GUI_HAVE_CUTTING
-  // The engine adds its face and vertex properties to its copy; the simulation takes
-  // that copy so the mesh can move between the two on the simulation thread.
-  cutting::CutParams cp;
-  cp.tissue = params.tissue;
-  engine_ = std::make_unique<cutting::CutEngine>(cp);
-  objectId_ = engine_->addObject(state.mesh);
-  state.mesh = engine_->object(objectId_).mesh;
-  state.invalidate();
-  storeFaceKinds(state.mesh);
-#endif
-  loop_ = std::make_unique<physics::SimulationLoop>(params, std::move(state), options);
-  loop_->start();
+using Clock = std::chrono::steady_clock;
+
+Vec3f toF(const Eigen::Vector3d& p) {
+  return {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())};
 }
 
-PhysicsSession::~PhysicsSession() { loop_->stop(); }  // before the engine goes
+}  // namespace
+
+physics::Params PhysicsSession::defaultParams() {
+  physics::Params params;
+  // The default slab has ~1.5 mm edges; at the 1 ms step the thesis's masses (5 mm
+  // thick water) would make the symplectic step unstable (omega * dt > 2), so the
+  // GUI's tissue is five times denser: omega * dt stays about 1.
+  params.tissue.density = 2.5e-5;
+  // Home springs weaker than the mesh springs' pre-stretch tension would allow a
+  // wound to gape by only a fraction of a millimetre; at 3 mN/mm it opens visibly.
+  params.tissue.homeK = 3.0;
+  return params;
+}
+
+PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh, Options options) : params_(defaultParams()), options_(options) {
+  if (!physics::hasTissueProperties(mesh)) physics::attachTissueProperties(mesh, params_.tissue);
+#ifdef LD_GUI_HAVE_CUTTING
+  cutting::CutParams cp;
+  cp.tissue = params_.tissue;
+  engine_ = std::make_unique<cutting::CutEngine>(cp);
+  const int id = engine_->addObject(std::move(mesh));
+  bodies_.push_back(Body{id, {}});
+#else
+  plain_ = std::make_unique<mesh::SurfaceMesh>(std::move(mesh));
+  bodies_.push_back(Body{0, {}});
+#endif
+  publish();
+  thread_ = std::thread([this] { run(); });
+}
+
+PhysicsSession::~PhysicsSession() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+}
+
+mesh::SurfaceMesh& PhysicsSession::meshOf(int id) {
+#ifdef LD_GUI_HAVE_CUTTING
+  return engine_->object(id).mesh;
+#else
+  (void)id;
+  return *plain_;
+#endif
+}
+
+void PhysicsSession::post(Command c) {
+  std::lock_guard lock(queueMutex_);
+  queue_.push_back(std::move(c));
+  ++posted_;
+}
+
+void PhysicsSession::drain() {
+  std::vector<Command> todo;
+  {
+    std::lock_guard lock(queueMutex_);
+    todo.swap(queue_);
+  }
+  for (auto& c : todo) c();
+  if (!todo.empty()) {
+    std::lock_guard lock(queueMutex_);
+    done_ += todo.size();
+  }
+  queueDone_.notify_all();
+}
+
+void PhysicsSession::sync() {
+  std::unique_lock lock(queueMutex_);
+  const std::uint64_t target = posted_;
+  queueDone_.wait(lock, [&] { return done_ >= target || stop_.load(); });
+}
+
+void PhysicsSession::run() {
+  physics::FlushDenormals ftz;
+  const double dt = 1.0 / options_.rateHz;
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(dt));
+  const auto publishPeriod =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options_.publishHz));
+  auto lastPublish = Clock::now();
+
+  // Settle the tissue as loaded (the thesis's start positions), showing progress.
+  physics::SettleOptions so;
+  so.dt = dt;
+  so.tolerance = options_.settleTolerance;
+  so.maxTime = options_.settleMaxTime;
+  so.progress = [&](double p, double) {
+    settleProgress_ = p;
+    if (Clock::now() - lastPublish >= publishPeriod) {
+      publish();
+      lastPublish = Clock::now();
+    }
+  };
+  so.cancel = [this] { return stop_.load(); };
+  physics::settle(params_, bodies_[0].dynamics, meshOf(bodies_[0].id), so);
+  settleProgress_ = 1.0;
+  publish();
+  settled_ = true;
+
+  auto deadline = Clock::now() + period;
+  double meanUs = 0.0;
+  while (!stop_.load()) {
+    drain();
+    const auto t0 = Clock::now();
+    stepAll(dt);
+    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
+    meanUs = steps_.load() == 0 ? us : 0.99 * meanUs + 0.01 * us;
+    meanStepUs_ = meanUs;
+    ++steps_;
+    if (Clock::now() - lastPublish >= publishPeriod) {
+      publish();
+      lastPublish = Clock::now();
+    }
+    const auto now = Clock::now();
+    if (now > deadline) {
+      ++late_;
+      if (now - deadline > 10 * period) deadline = now;  // drop the backlog, do not spiral
+    } else {
+      std::this_thread::sleep_until(deadline);
+    }
+    deadline += period;
+  }
+  drain();  // let sync() return
+}
+
+void PhysicsSession::stepAll(double dt) {
+  std::uint64_t warnings = 0;
+  for (auto& b : bodies_) {
+    physics::step(params_, b.dynamics, meshOf(b.id), dt);
+    warnings += b.dynamics.stability.warnings;
+  }
+  warnings_ = warnings;
+}
+
+void PhysicsSession::publish() {
+  SceneFrame next;
+  {
+    std::lock_guard lock(frameMutex_);
+    next.objects.reserve(bodies_.size());
+    for (const auto& b : bodies_) {
+      const mesh::SurfaceMesh& m = meshOf(b.id);
+      SceneObject o;
+      o.id = b.id;
+#ifdef LD_GUI_HAVE_CUTTING
+      o.parent = engine_->object(b.id).parent;
+#endif
+      o.topology = m.topologyVersion();
+      o.mesh.positions.resize(m.verticesSize());
+      for (auto v : m.vertices()) o.mesh.positions[v.idx()] = toF(m.position(v));
+      // Triangles again only when they changed since the last frame.
+      const auto old = std::find_if(frame_.objects.begin(), frame_.objects.end(),
+                                    [&](const SceneObject& x) { return x.id == b.id; });
+      if (old != frame_.objects.end() && old->topology == o.topology) {
+        o.mesh.triangles = old->mesh.triangles;
+        o.mesh.faceKind = old->mesh.faceKind;
+      } else {
+        o.mesh.triangles.reserve(m.nFaces());
+        o.mesh.faceKind.reserve(m.nFaces());
+#ifdef LD_GUI_HAVE_CUTTING
+        const auto kind = m.getFaceProperty<int>(cutting::kFaceKindProp);
+#endif
+        for (auto f : m.faces()) {
+          const auto& vs = m.vertices(f);
+          o.mesh.triangles.push_back({static_cast<std::uint32_t>(vs[0].idx()), static_cast<std::uint32_t>(vs[1].idx()),
+                                      static_cast<std::uint32_t>(vs[2].idx())});
+#ifdef LD_GUI_HAVE_CUTTING
+          o.mesh.faceKind.push_back(kind && kind[f] != cutting::kSurface ? 1 : 0);
+#else
+          o.mesh.faceKind.push_back(0);
+#endif
+        }
+      }
+      next.objects.push_back(std::move(o));
+    }
+  }
+  next.preview = preview_;
+  next.simTime = bodies_[0].dynamics.time;
+  std::lock_guard lock(frameMutex_);
+  next.serial = ++serial_;
+  frame_ = std::move(next);
+}
+
+bool PhysicsSession::update(SceneFrame& out, bool& topologyChanged) {
+  std::lock_guard lock(frameMutex_);
+  topologyChanged = false;
+  if (frame_.serial == taken_ && !out.objects.empty()) return false;
+  taken_ = frame_.serial;
+  std::vector<std::pair<int, std::uint64_t>> topo;
+  topo.reserve(frame_.objects.size());
+  for (const auto& o : frame_.objects) topo.emplace_back(o.id, o.topology);
+  topologyChanged = topo != takenTopology_ || out.objects.size() != frame_.objects.size();
+  takenTopology_ = std::move(topo);
+  out = frame_;
+  return true;
+}
 
 bool PhysicsSession::update(RenderMesh& out, bool& topologyChanged) {
-  bool changed = false;
-  topologyChanged = false;
-  loop_->withSnapshot([&](const physics::Snapshot& s) {
-    if (!first_ && s.serial == lastSerial_) return;
-    std::lock_guard lock(kindsMutex_);
-    changed = true;
-    topologyChanged = first_ || s.topologyVersion != lastTopology_ || piecesShown_ != piecesVersion_ ||
-                      out.positions.size() != s.positions.size() + pieces_.positions.size();
-    first_ = false;
-    lastSerial_ = s.serial;
-    lastTopology_ = s.topologyVersion;
-    piecesShown_ = piecesVersion_;
-    // The simulated tissue first, then the pieces a cut has set free (not simulated).
-    out.positions.resize(s.positions.size() + pieces_.positions.size());
-    for (std::size_t i = 0; i < s.positions.size(); ++i)
-      out.positions[i] = {static_cast<float>(s.positions[i].x()), static_cast<float>(s.positions[i].y()),
-                          static_cast<float>(s.positions[i].z())};
-    std::copy(pieces_.positions.begin(), pieces_.positions.end(),
-              out.positions.begin() + static_cast<std::ptrdiff_t>(s.positions.size()));
-    if (topologyChanged) {
-      out.triangles.assign(s.triangles.begin(), s.triangles.end());
-      if (kindsTopology_ == s.topologyVersion && kinds_.size() == out.triangles.size())
-        out.faceKind = kinds_;
-      else
-        out.faceKind.assign(out.triangles.size(), 0);
-      const auto offset = static_cast<std::uint32_t>(s.positions.size());
-      for (const auto& t : pieces_.triangles) out.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-      out.faceKind.insert(out.faceKind.end(), pieces_.faceKind.begin(), pieces_.faceKind.end());
-    }
-  });
-  return changed;
+  SceneFrame f;
+  if (!update(f, topologyChanged) || f.objects.empty()) return false;
+  out = std::move(f.objects.front().mesh);
+  return true;
 }
 
-void PhysicsSession::pushToward(std::uint32_t vertex, const Eigen::Vector3d& target) {
-  Eigen::Vector3d at = target;
-  loop_->withSnapshot([&](const physics::Snapshot& s) {
-    if (vertex < s.positions.size()) at = s.positions[vertex];
-  });
-  Eigen::Vector3d f = kPushStiffness * (target - at);
-  if (f.norm() > kMaxPushForce) f *= kMaxPushForce / f.norm();
-  pushed_ = vertex;
-  applyPatchForce(vertex, f);
+void PhysicsSession::setForce(int object, std::uint32_t v, const Eigen::Vector3d& f) {
+  mesh::SurfaceMesh& m = meshOf(object);
+  if (v >= m.verticesSize() || m.isDeleted(mesh::Vertex(v))) return;
+  auto force = m.vertexProperty<Eigen::Vector3d>(physics::kForceProp, Eigen::Vector3d::Zero());
+  force[mesh::Vertex(v)] = f;
+  forced_.emplace_back(object, v);
 }
 
-void PhysicsSession::applyPatchForce(std::uint32_t vertex, const Eigen::Vector3d& f) {
-  // The pull acts on a small disc around the picked vertex, like an instrument's
-  // tip, not on one vertex: weights (1 - d/r)^2 within r, normalised to the total.
-  std::vector<std::pair<std::uint32_t, double>> patch;
-  loop_->withSnapshot([&](const physics::Snapshot& s) {
-    if (vertex >= s.positions.size()) return;
-    const Eigen::Vector3d at = s.positions[vertex];
-    if (patchTopology_ != s.topologyVersion || patchCentre_ != vertex) {
-      patchTopology_ = s.topologyVersion;
-      patchCentre_ = vertex;
-      std::vector<bool> used(s.positions.size(), false);
-      for (const auto& t : s.triangles)
-        for (auto v : t) used[v] = true;
-      patchVertices_.clear();
-      for (std::uint32_t v = 0; v < s.positions.size(); ++v)
-        if (used[v] && (s.positions[v] - at).norm() < kPushRadius) patchVertices_.push_back(v);
-    }
-    double total = 0;
-    for (auto v : patchVertices_) {
-      const double w = std::pow(1.0 - std::min((s.positions[v] - at).norm() / kPushRadius, 1.0), 2);
-      patch.emplace_back(v, w);
-      total += w;
-    }
-    for (auto& [v, w] : patch) w /= total;
+void PhysicsSession::clearForces() {
+  for (const auto& [object, v] : forced_) {
+    mesh::SurfaceMesh& m = meshOf(object);
+    if (v >= m.verticesSize()) continue;
+    auto force = m.vertexProperty<Eigen::Vector3d>(physics::kForceProp, Eigen::Vector3d::Zero());
+    force[mesh::Vertex(v)] = Eigen::Vector3d::Zero();
+  }
+  forced_.clear();
+}
+
+void PhysicsSession::applyPatchForce(int object, std::uint32_t vertex, const Eigen::Vector3d& f) {
+  // The pull acts on a small disc around the picked vertex, like an instrument's tip,
+  // not on one vertex: weights (1 - d/r)^2 within r, normalised to the total.
+  const mesh::SurfaceMesh& m = meshOf(object);
+  if (vertex >= m.verticesSize() || m.isDeleted(mesh::Vertex(vertex))) return;
+  const Eigen::Vector3d at = m.position(mesh::Vertex(vertex));
+  if (patchKey_ != std::pair{object, vertex} || patchTopology_ != m.topologyVersion()) {
+    patchKey_ = std::pair{object, vertex};
+    patchTopology_ = m.topologyVersion();
+    patch_.clear();
+    for (auto v : m.vertices())
+      if ((m.position(v) - at).norm() < kPushRadius) patch_.push_back(static_cast<std::uint32_t>(v.idx()));
+  }
+  std::vector<std::pair<std::uint32_t, double>> weights;
+  double total = 0;
+  for (auto v : patch_) {
+    const double w = std::pow(1.0 - std::min((m.position(mesh::Vertex(v)) - at).norm() / kPushRadius, 1.0), 2);
+    weights.emplace_back(v, w);
+    total += w;
+  }
+  clearForces();
+  if (!(total > 0)) {
+    weights.assign(1, {vertex, 1.0});
+    total = 1.0;
+  }
+  for (const auto& [v, w] : weights) setForce(object, v, (w / total) * f);
+  for (auto& b : bodies_)
+    if (b.id == object) b.dynamics.energyBudget = std::numeric_limits<double>::quiet_NaN();
+}
+
+void PhysicsSession::pushToward(int object, std::uint32_t vertex, const Eigen::Vector3d& target) {
+  post([this, object, vertex, target] {
+    const mesh::SurfaceMesh& m = meshOf(object);
+    if (vertex >= m.verticesSize()) return;
+    Eigen::Vector3d f = kPushStiffness * (target - m.position(mesh::Vertex(vertex)));
+    if (f.norm() > kMaxPushForce) f *= kMaxPushForce / f.norm();
+    pushForce_ = f.norm();
+    applyPatchForce(object, vertex, f);
   });
-  pushForce_ = f.norm();
-  if (patch.empty()) patch.emplace_back(vertex, 1.0);
-  for (const auto& [v, w] : patch) loop_->setForce(mesh::Vertex(v), w * f);
 }
 
 void PhysicsSession::release() {
-  pushed_.reset();
-  pushForce_ = 0.0;
-  loop_->clearForces();
+  post([this] {
+    pushForce_ = 0.0;
+    clearForces();
+  });
 }
 
 void PhysicsSession::forceAt(const Eigen::Vector3d& point, const Eigen::Vector3d& force) {
-  std::optional<std::uint32_t> nearest;
-  loop_->withSnapshot([&](const physics::Snapshot& s) {
+  post([this, point, force] {
+    const mesh::SurfaceMesh& m = meshOf(bodies_[0].id);
+    std::optional<std::uint32_t> nearest;
     double best = std::numeric_limits<double>::infinity();
-    for (const auto& t : s.triangles)
-      for (auto v : t)
-        if (const double d = (s.positions[v] - point).squaredNorm(); d < best) {
+    for (auto f : m.faces())
+      for (auto v : m.vertices(f))
+        if (const double d = (m.position(v) - point).squaredNorm(); d < best) {
           best = d;
-          nearest = v;
+          nearest = static_cast<std::uint32_t>(v.idx());
         }
+    if (nearest) applyPatchForce(bodies_[0].id, *nearest, force);
   });
-  if (nearest) applyPatchForce(*nearest, force);
+}
+
+void PhysicsSession::movePiece(int object, const Eigen::Vector3d& delta) {
+  post([this, object, delta] {
+    for (auto& b : bodies_) {
+      if (b.id != object || b.id == bodies_[0].id) continue;
+      mesh::SurfaceMesh& m = meshOf(b.id);
+      auto home = m.vertexProperty<Eigen::Vector3d>(physics::kHomeProp, Eigen::Vector3d::Zero());
+      for (auto v : m.vertices()) home[v] += delta;
+      b.dynamics.invalidate();  // the home energy jumps: a new budget, not a divergence
+    }
+  });
+}
+
+void PhysicsSession::moveAllPieces(const Eigen::Vector3d& delta) {
+  post([this, delta] {
+    for (std::size_t i = 1; i < bodies_.size(); ++i) {
+      mesh::SurfaceMesh& m = meshOf(bodies_[i].id);
+      auto home = m.vertexProperty<Eigen::Vector3d>(physics::kHomeProp, Eigen::Vector3d::Zero());
+      for (auto v : m.vertices()) home[v] += delta;
+      bodies_[i].dynamics.invalidate();
+    }
+  });
 }
 
 bool PhysicsSession::cuttingAvailable() {
@@ -153,52 +339,32 @@ bool PhysicsSession::cuttingAvailable() {
 #endif
 }
 
-void PhysicsSession::storeFaceKinds(const mesh::SurfaceMesh& m) {
+void PhysicsSession::addBodies() {
 #ifdef LD_GUI_HAVE_CUTTING
-  std::vector<std::uint8_t> kinds;
-  kinds.reserve(m.nFaces());
-  const auto prop = m.getFaceProperty<int>(cutting::kFaceKindProp);
-  for (auto f : m.faces()) kinds.push_back(prop && prop[f] != cutting::kSurface ? 1 : 0);
-  std::lock_guard lock(kindsMutex_);
-  kinds_ = std::move(kinds);
-  kindsTopology_ = m.topologyVersion();
-#else
-  (void)m;
+  for (const auto& o : engine_->objects()) {
+    if (std::any_of(bodies_.begin(), bodies_.end(), [&](const Body& b) { return b.id == o.id; })) continue;
+    mesh::SurfaceMesh& m = meshOf(o.id);
+    if (!physics::hasTissueProperties(m)) physics::attachTissueProperties(m, params_.tissue);
+    bodies_.push_back(Body{o.id, {}});
+  }
+  objectCount_ = static_cast<int>(bodies_.size());
 #endif
 }
 
+void PhysicsSession::afterCut(const cutting::StepResult& r) {
 #ifdef LD_GUI_HAVE_CUTTING
-void PhysicsSession::afterCut(physics::State& st, const cutting::StepResult& r) {
   trianglesCut_ += r.trianglesCut;
-  bool stale = false;
-  {
-    std::lock_guard lock(kindsMutex_);
-    stale = kindsTopology_ != st.mesh.topologyVersion();
-  }
-  // A refused sample (exception) can leave edits without a result saying so.
-  if (!r.topologyChanged && !stale) return;
-  st.invalidate();  // masses and springs changed around the cut
-  storeFaceKinds(st.mesh);
-  if (r.separated.empty()) return;
-  // Freed pieces stay where they were cut free, drawn but not simulated.
-  RenderMesh add;
-  for (int id : r.separated) {
-    const auto& piece = engine_->object(id).mesh;
-    RenderMesh pm = renderMeshFrom(piece);
-    const auto kind = piece.getFaceProperty<int>(cutting::kFaceKindProp);
-    const auto offset = static_cast<std::uint32_t>(add.positions.size());
-    add.positions.insert(add.positions.end(), pm.positions.begin(), pm.positions.end());
-    for (auto f : piece.faces()) add.faceKind.push_back(kind && kind[f] != cutting::kSurface ? 1 : 0);
-    for (const auto& t : pm.triangles) add.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  }
-  std::lock_guard lock(kindsMutex_);
-  const auto offset = static_cast<std::uint32_t>(pieces_.positions.size());
-  pieces_.positions.insert(pieces_.positions.end(), add.positions.begin(), add.positions.end());
-  for (const auto& t : add.triangles) pieces_.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  pieces_.faceKind.insert(pieces_.faceKind.end(), add.faceKind.begin(), add.faceKind.end());
-  ++piecesVersion_;
-}
+  preview_.clear();
+  for (const auto& p : r.preview) preview_.push_back({toF(p.from), toF(p.to), toF(p.depth)});
+  // Masses and springs changed around the cut (the cache follows the topology
+  // version; the energy budget starts again).
+  if (r.topologyChanged)
+    for (auto& b : bodies_) b.dynamics.energyBudget = std::numeric_limits<double>::quiet_NaN();
+  addBodies();
+#else
+  (void)r;
 #endif
+}
 
 void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vector3d& normal,
                                const Eigen::Vector3d& motion, double depth) {
@@ -207,23 +373,20 @@ void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vect
   // sharp side faces `up`, which must point along the motion for the blade to cut.
   instruments::Pose pose;
   pose.dir = -normal.normalized();
-  Eigen::Vector3d up = motion - motion.dot(pose.dir) * pose.dir;
+  const Eigen::Vector3d up = motion - motion.dot(pose.dir) * pose.dir;
   if (up.norm() < 1e-9) return;
   pose.up = up.normalized();
   pose.tip = surface + depth * pose.dir;
-  loop_->post([this, pose](physics::Params&, physics::State& st) {
-    engine_->object(objectId_).mesh = std::move(st.mesh);
+  post([this, pose] {
     cutting::StepResult r;
     try {
       r = engine_->step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
     } catch (const std::exception& e) {
       // The engine refused this sample; the stroke goes on with the next one.
-      std::lock_guard lock(kindsMutex_);
+      std::lock_guard lock(errorMutex_);
       lastCutError_ = e.what();
     }
-    // Look the object up again: a separation may have grown the engine's list.
-    st.mesh = std::move(engine_->object(objectId_).mesh);
-    afterCut(st, r);
+    afterCut(r);
   });
 #else
   (void)surface, (void)normal, (void)motion, (void)depth;
@@ -232,46 +395,38 @@ void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vect
 
 void PhysicsSession::endCut() {
 #ifdef LD_GUI_HAVE_CUTTING
-  loop_->post([this](physics::Params&, physics::State& st) {
-    engine_->object(objectId_).mesh = std::move(st.mesh);
-    const cutting::StepResult r = engine_->endStroke(instruments::Hand::Right);
-    st.mesh = std::move(engine_->object(objectId_).mesh);
-    afterCut(st, r);
+  post([this] {
+    cutting::StepResult r;
+    try {
+      r = engine_->endStroke(instruments::Hand::Right);
+    } catch (const std::exception& e) {
+      std::lock_guard lock(errorMutex_);
+      lastCutError_ = e.what();
+    }
+    afterCut(r);
+    preview_.clear();
   });
 #endif
 }
 
-bool PhysicsSession::settled() const { return loop_->isSettled(); }
-double PhysicsSession::settleProgress() const { return loop_->settleProgress(); }
-
 double PhysicsSession::simTime() const {
-  double t = 0.0;
-  loop_->withSnapshot([&](const physics::Snapshot& s) { t = s.simTime; });
-  return t;
+  std::lock_guard lock(frameMutex_);
+  return frame_.simTime;
 }
 
 QString PhysicsSession::status() const {
-  if (!loop_->isSettled())
-    return QStringLiteral("Physics: settling %1%").arg(static_cast<int>(100.0 * loop_->settleProgress()));
-  std::uint64_t warnings = 0;
-  double t = 0.0;
-  loop_->withSnapshot([&](const physics::Snapshot& s) {
-    warnings = s.stabilityWarnings;
-    t = s.simTime;
-  });
-  const auto st = loop_->stats();
-  QString line = QStringLiteral("Physics: t = %1 s, step %2 µs (p95 %3), late %4")
-                     .arg(t, 0, 'f', 1)
-                     .arg(st.meanUs, 0, 'f', 0)
-                     .arg(st.p95Us, 0, 'f', 0)
-                     .arg(st.missedDeadlines);
-  if (warnings) line += QStringLiteral(", %1 stability warnings").arg(warnings);
-  if (pushForce_ > 0) line += QStringLiteral(", push %1 mN").arg(pushForce_, 0, 'f', 0);
+  if (!settled_.load())
+    return QStringLiteral("Physics: settling %1%").arg(static_cast<int>(100.0 * settleProgress_.load()));
+  QString line = QStringLiteral("Physics: t = %1 s, step %2 µs, late %3")
+                     .arg(simTime(), 0, 'f', 1)
+                     .arg(meanStepUs_.load(), 0, 'f', 0)
+                     .arg(late_.load());
+  if (const auto w = warnings_.load()) line += QStringLiteral(", %1 stability warnings").arg(w);
+  if (const int n = objectCount_.load(); n > 1) line += QStringLiteral(", %1 pieces freed").arg(n - 1);
+  if (pushForce_.load() > 0) line += QStringLiteral(", push %1 mN").arg(pushForce_.load(), 0, 'f', 0);
   if (trianglesCut_ > 0) line += QStringLiteral(", %1 triangles cut").arg(trianglesCut_.load());
-  {
-    std::lock_guard lock(kindsMutex_);
-    if (!lastCutError_.empty()) line += QStringLiteral(", cut refused: %1").arg(QString::fromStdString(lastCutError_));
-  }
+  std::lock_guard lock(errorMutex_);
+  if (!lastCutError_.empty()) line += QStringLiteral(", cut refused: %1").arg(QString::fromStdString(lastCutError_));
   return line;
 }
 

@@ -1,35 +1,61 @@
 #pragma once
-// The tissue simulation behind the window: a physics::SimulationLoop on its own
-// thread (it settles the tissue first, then runs at a fixed rate), read by the GUI
-// thread through snapshots only. The mouse pushes the tissue through a virtual
-// spring between the picked vertex and the cursor's point.
+// The tissue simulation behind the window. A thread of its own steps every tissue
+// object of a cutting::CutEngine in place (physics::step on the engine's meshes, one
+// physics::Dynamics per object) at a fixed rate, after settling the tissue first.
+// The GUI thread talks to it through a command queue (cuts, pushes, grasps run
+// between two steps) and reads published frames only, never the meshes.
+//
+// Object 0 is the tissue as loaded; a cut-through that frees a part adds an object
+// that is simulated like the rest and can be grasped and moved: dragging translates
+// the piece's home positions, so the springs pull it along and it stays where it is
+// dropped.
 #include <QString>
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "app/gui/render_mesh.h"
 #include "sim/mesh/surface_mesh.h"
+#include "sim/physics/mass_spring.h"
 
-namespace ld::physics {
-class SimulationLoop;
-}
 namespace ld::cutting {
 class CutEngine;
 struct StepResult;
 }  // namespace ld::cutting
-namespace ld::physics {
-struct State;
-}
 
 namespace ld::gui {
+
+// One tissue object as drawn: positions by vertex slot (deleted slots are kept, not
+// referenced), so vertex indices are the mesh's own.
+struct SceneObject {
+  int id = 0;
+  int parent = -1;  // the object it was cut from, or -1
+  RenderMesh mesh;
+  std::uint64_t topology = 0;  // changes when the triangles change
+};
+
+// Where the cut follows the blade inside a triangle (CutEngine's preview), in mm.
+struct PreviewLine {
+  Vec3f from{}, to{}, depth{};
+};
+
+struct SceneFrame {
+  std::vector<SceneObject> objects;
+  std::vector<PreviewLine> preview;
+  std::uint64_t serial = 0;
+  double simTime = 0.0;
+};
 
 class PhysicsSession {
  public:
@@ -38,21 +64,43 @@ class PhysicsSession {
   static constexpr double kMaxPushForce = 400.0;
   static constexpr double kPushRadius = 4.0;  // [mm] the pulled patch around the picked vertex
 
-  explicit PhysicsSession(mesh::SurfaceMesh mesh);
+  struct Options {
+    double rateHz = 1000.0;
+    double publishHz = 60.0;
+    double settleTolerance = 1e-2;  // [mN]: visually at rest
+    double settleMaxTime = 5.0;     // [s] simulated
+  };
+
+  explicit PhysicsSession(mesh::SurfaceMesh mesh) : PhysicsSession(std::move(mesh), Options{}) {}
+  PhysicsSession(mesh::SurfaceMesh mesh, Options options);
   ~PhysicsSession();
   PhysicsSession(const PhysicsSession&) = delete;
   PhysicsSession& operator=(const PhysicsSession&) = delete;
 
-  // Copies the latest snapshot into `out` when it is newer than the last one taken.
-  // Returns true then; `topologyChanged` tells whether the triangles changed too.
+  // The tissue parameters the window simulates with (weaker home springs than the
+  // defaults so that a wound visibly opens under the pre-stretch).
+  [[nodiscard]] static physics::Params defaultParams();
+
+  // Copies the latest frame into `out` when it is newer than the one it holds.
+  // Returns true then; `topologyChanged` tells whether any object's triangles (or the
+  // list of objects) changed too.
+  bool update(SceneFrame& out, bool& topologyChanged);
+  // Object 0 only (the tissue as loaded).
   bool update(RenderMesh& out, bool& topologyChanged);
 
-  // Pulls vertex v toward `target` with the virtual spring (call again as the cursor
-  // or the tissue moves); release() lets go.
-  void pushToward(std::uint32_t vertex, const Eigen::Vector3d& target);
+  // Pulls vertex v of an object toward `target` with the virtual spring (call again
+  // as the cursor or the tissue moves); release() lets go.
+  void pushToward(int object, std::uint32_t vertex, const Eigen::Vector3d& target);
+  void pushToward(std::uint32_t vertex, const Eigen::Vector3d& target) { pushToward(0, vertex, target); }
   void release();
-  // A force spread over the patch around the vertex nearest `point` (--push).
+  // A force spread over the patch around the vertex of object 0 nearest `point` (--push).
   void forceAt(const Eigen::Vector3d& point, const Eigen::Vector3d& force);
+
+  // Moves a freed piece: its home positions (and so the piece) by `delta` [mm].
+  // Object 0 (the tissue held in place) is not moved.
+  void movePiece(int object, const Eigen::Vector3d& delta);
+  // Every piece freed so far (on the simulation thread's order of commands).
+  void moveAllPieces(const Eigen::Vector3d& delta);
 
   // Scalpel cutting (when the cutting module is built): one stroke sample with the
   // blade's tip `depth` mm under the surface point `surface` whose outward normal is
@@ -62,39 +110,67 @@ class PhysicsSession {
                  double depth);
   void endCut();
   [[nodiscard]] long trianglesCut() const { return trianglesCut_.load(); }
+  [[nodiscard]] int objectCount() const { return objectCount_.load(); }
 
-  [[nodiscard]] bool settled() const;
-  [[nodiscard]] double settleProgress() const;
+  // Blocks until every command posted so far has run (scripted use and tests).
+  void sync();
+
+  [[nodiscard]] bool settled() const { return settled_.load(); }
+  [[nodiscard]] double settleProgress() const { return settleProgress_.load(); }
   [[nodiscard]] double simTime() const;
   [[nodiscard]] QString status() const;  // one line for the status bar
 
  private:
-  void storeFaceKinds(const mesh::SurfaceMesh& m);
-  void afterCut(physics::State& st, const cutting::StepResult& r);
+  struct Body {
+    int id = 0;
+    physics::Dynamics dynamics;
+  };
+  using Command = std::function<void()>;
 
-  // Force f spread over the patch around vertex (total f).
-  void applyPatchForce(std::uint32_t vertex, const Eigen::Vector3d& f);
+  void post(Command c);
+  void run();
+  void drain();
+  void stepAll(double dt);
+  void publish();
+  mesh::SurfaceMesh& meshOf(int id);
+  void addBodies();
+  void afterCut(const cutting::StepResult& r);
+  void setForce(int object, std::uint32_t v, const Eigen::Vector3d& f);              // sim thread
+  void clearForces();                                                                // sim thread
+  void applyPatchForce(int object, std::uint32_t vertex, const Eigen::Vector3d& f);  // sim thread
 
-  // Declared before the loop so it outlives the simulation thread that uses it.
+  physics::Params params_;
+  Options options_;
   std::unique_ptr<cutting::CutEngine> engine_;
-  int objectId_ = -1;
-  std::atomic<long> trianglesCut_{0};
-  mutable std::mutex kindsMutex_;
-  std::vector<std::uint8_t> kinds_;  // per live face, as the snapshot lists them
-  std::uint64_t kindsTopology_ = ~std::uint64_t{0};
-  std::string lastCutError_;
-  RenderMesh pieces_;  // parts a cut-through set free (shown, not simulated)
-  std::uint64_t piecesVersion_ = 0, piecesShown_ = 0;
-
-  std::unique_ptr<physics::SimulationLoop> loop_;
-  std::uint64_t lastSerial_ = 0;
-  std::uint64_t lastTopology_ = 0;
-  bool first_ = true;
-  std::optional<std::uint32_t> pushed_;
+  std::unique_ptr<mesh::SurfaceMesh> plain_;  // the tissue when the cutting module is absent
+  std::vector<Body> bodies_;                  // sim thread
+  std::vector<std::pair<int, std::uint32_t>> forced_;
+  std::optional<std::pair<int, std::uint32_t>> patchKey_;
   std::uint64_t patchTopology_ = ~std::uint64_t{0};
-  std::uint32_t patchCentre_ = ~std::uint32_t{0};
-  std::vector<std::uint32_t> patchVertices_;
-  double pushForce_ = 0.0;
+  std::vector<std::uint32_t> patch_;
+
+  std::mutex queueMutex_;
+  std::condition_variable queueDone_;
+  std::vector<Command> queue_;
+  std::uint64_t posted_ = 0, done_ = 0;
+
+  mutable std::mutex frameMutex_;
+  SceneFrame frame_;
+  std::vector<PreviewLine> preview_;  // sim thread
+  std::uint64_t serial_ = 0;
+  std::uint64_t taken_ = 0;
+  std::vector<std::pair<int, std::uint64_t>> takenTopology_;
+
+  std::atomic<bool> stop_{false}, settled_{false};
+  std::atomic<double> settleProgress_{0.0};
+  std::atomic<long> trianglesCut_{0};
+  std::atomic<int> objectCount_{1};
+  std::atomic<double> pushForce_{0.0};
+  std::atomic<std::uint64_t> warnings_{0}, late_{0}, steps_{0};
+  std::atomic<double> meanStepUs_{0.0};
+  mutable std::mutex errorMutex_;
+  std::string lastCutError_;
+  std::thread thread_;
 };
 
 }  // namespace ld::gui
