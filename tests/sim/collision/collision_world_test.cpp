@@ -120,6 +120,59 @@ TEST(CollisionWorld, FollowsCuttingEditsAndMovesAndFreedPieces) {
   EXPECT_THROW((void)world.bvh(12345), CollisionError);
 }
 
+// The cutter edits the mesh and queries again without telling the world: the
+// trees follow the edit journal by themselves, locally.
+TEST(CollisionWorld, QueriesFollowTopologyEditsWithoutAnExplicitSync) {
+  auto slab = std::make_unique<mesh::SurfaceMesh>(testing::slab(8, 1.0, 2.0));
+  auto ball = std::make_unique<mesh::SurfaceMesh>(testing::icosphere(2, 1.0, Vector3d(4.3, 4.6, 3.0)));
+  CollisionWorld world;
+  const ObjectId s = world.add(*slab), b = world.add(*ball);
+  const std::size_t builds = world.bvh(s).stats().builds;
+  const Vector3d a(4.3, 4.6, 6), c(4.3, 4.6, -6);
+  for (int i = 0; i < 30; ++i) {
+    // Split the face under the segment again and again (as a cut would), on the top
+    // and the bottom in turn (a third of the area each time: 15 splits stay far from
+    // degenerate triangles, which the tolerant test treats as holes).
+    const auto brute = intersectSegment(*slab, a, c);
+    const mesh::Face f = i % 2 ? brute.back().face : brute.front().face;  // a is above: top first
+    const auto& vs = slab->vertices(f);
+    slab->splitFace(f, 0.2 * slab->position(vs[0]) + 0.3 * slab->position(vs[1]) + 0.5 * slab->position(vs[2]));
+    const auto hits = world.intersectSegment(c, a);  // from below: slab bottom, slab top, ball in, ball out
+    const auto expected = intersectSegment(*slab, c, a);
+    ASSERT_EQ(hits.size(), expected.size() + 2);
+    for (std::size_t k = 0; k < expected.size(); ++k) {
+      EXPECT_EQ(hits[k].object, s);
+      EXPECT_EQ(hits[k].hit.face, expected[k].face);
+      EXPECT_EQ(hits[k].hit.kind, expected[k].kind);
+      EXPECT_EQ(hits[k].hit.t, expected[k].t);
+    }
+    EXPECT_EQ(hits.back().object, b);
+  }
+  EXPECT_EQ(world.bvh(s).check(*slab), "");
+  EXPECT_EQ(world.bvh(s).stats().builds, builds) << "30 splits are absorbed locally";
+  // First contact and the yes/no test over all objects.
+  const auto first = world.firstHit(a, c);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(first->object, b);
+  EXPECT_TRUE(near(first->hit.point.z(), 4.0, 0.05));  // top of the ball (a subdivided sphere)
+  const auto fromBelow = world.firstHit(c, a);
+  ASSERT_TRUE(fromBelow.has_value());
+  EXPECT_EQ(fromBelow->object, s);
+  EXPECT_TRUE(near(fromBelow->hit.point.z(), -2.0, 1e-12));
+  EXPECT_TRUE(world.anyHit(a, c));
+  EXPECT_FALSE(world.anyHit(Vector3d(20, 20, 1), Vector3d(30, 30, -1)));
+  EXPECT_FALSE(world.firstHit(Vector3d(20, 20, 1), Vector3d(30, 30, -1)).has_value());
+  // Physics moves a region: refit only around those vertices.
+  std::vector<mesh::Vertex> moved;
+  for (mesh::Vertex v : ball->vertices()) {
+    ball->position(v).z() += 10.0;
+    moved.push_back(v);
+  }
+  world.refitVertices(b, moved);
+  EXPECT_EQ(world.bvh(b).check(*ball), "");
+  EXPECT_EQ(world.firstHit(a, c)->object, s);
+}
+
 TEST(CollisionWorld, SweepOfAFastScalpelStrokeFindsTopAndBottomLayers) {
   const auto slab = std::make_unique<mesh::SurfaceMesh>(testing::slab(10, 1.0, 2.0));
   CollisionWorld world;
