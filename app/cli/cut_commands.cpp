@@ -129,6 +129,10 @@ int cut(const Args& args) {
   j["fill_failures"] = st.fillFailures;
   j["physics"] = physicsMode;
   j["separation_ms"] = st.separationSeconds * 1e3;
+  j["collision_us_per_query"] = st.collisionQueries > 0 ? st.collisionSeconds * 1e6 / st.collisionQueries : 0.0;
+  j["collision_queries"] = st.collisionQueries;
+  j["fast_samples"] = st.fastSamples;
+  j["slow_samples"] = st.slowSamples;
   if (physicsOn) j["physics_us_per_step"] = physicsSteps > 0 ? physicsSeconds * 1e6 / physicsSteps : 0.0;
   printJson(j);
   return kOk;

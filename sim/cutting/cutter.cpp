@@ -34,6 +34,11 @@ bool dbg() {
 
 constexpr const char* kApexProp = "v:cut_apex";
 
+bool sliverTrace() {
+  static bool d = std::getenv("LD_CUT_SLIVER_TRACE") != nullptr;
+  return d;
+}
+
 int handIndex(Hand h) { return h == Hand::Left ? 0 : 1; }
 
 // Thread CPU time: remeshing figures must not count the time other processes take
@@ -305,6 +310,23 @@ struct CutEngine::Impl {
 
   double snapTolerance(double edgeLength) const { return std::max(p.snapDistance, p.snapFraction * edgeLength); }
 
+  // LD_CUT_SLIVER_TRACE: names the edit that left a thin triangle around `vs`.
+  void traceThin(int obj, std::initializer_list<Vertex> vs, const char* what) {
+    if (!sliverTrace()) return;
+    const SurfaceMesh& m = meshOf(obj);
+    for (Vertex v : vs) {
+      if (!m.isValid(v)) continue;
+      for (Face f : m.faces(v)) {
+        const auto& fv = m.vertices(f);
+        const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
+        if (h < 0.25 * p.snapDistance) {
+          std::cerr << "THIN " << what << " h=" << h << "\n";
+          return;
+        }
+      }
+    }
+  }
+
   // ---- elementary edits with hooks ------------------------------------------------------
   Vertex splitEdgeAt(int obj, Edge e, const Vec3& q) {
     SurfaceMesh& m = meshOf(obj);
@@ -314,6 +336,7 @@ struct CutEngine::Impl {
     const Vertex v = m.splitEdge(e, q);
     if (tissue(obj)) physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
     touch(obj, {v});
+    traceThin(obj, {v}, "splitEdge");
     return v;
   }
 
@@ -357,6 +380,7 @@ struct CutEngine::Impl {
     const Vertex nv = m.splitFace(f, P);
     if (tissue(obj)) physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
     touch(obj, {nv});
+    traceThin(obj, {nv}, "splitFace");
     return nv;
   }
 
@@ -657,6 +681,10 @@ struct CutEngine::Impl {
     }
     for (Vertex x : touched) touch(tr.object, {x});
     for (Vertex x : touched) unpinch(tr.object, x);
+    if (sliverTrace())
+      for (Vertex x : touched)
+        traceThin(tr.object, {x},
+                  fill == Fill::Apex ? "extend/apex" : (chain.size() > 1 ? "extend/chain" : "extend/fan"));
     return true;
   }
 
@@ -1150,6 +1178,8 @@ struct CutEngine::Impl {
       }
     }
     if (!ok) ++stats.fillFailures;
+    if (sliverTrace())
+      for (Vertex x : touched) traceThin(A.object, {x}, "close");
     for (Vertex x : touched) touch(A.object, {x});
     for (Vertex x : touched) unpinch(A.object, x);
     return true;
@@ -1519,7 +1549,11 @@ struct CutEngine::Impl {
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
-      if (advanceFast(t, hits[static_cast<std::size_t>(matchOf[ti])])) continue;
+      if (advanceFast(t, hits[static_cast<std::size_t>(matchOf[ti])])) {
+        ++stats.fastSamples;
+        continue;
+      }
+      ++stats.slowSamples;
       {
         CpuTimer timer{stats.remeshSeconds};
         advance(t, hits[static_cast<std::size_t>(matchOf[ti])], bladeOf(t.segment));

@@ -116,6 +116,8 @@ struct CutStats {
   double separationSeconds = 0.0;  // time splitting freed pieces into objects (O(mesh size), rare)
   double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)
   long collisionQueries = 0;       // segment queries (one per cutting edge per sub-sample)
+  long fastSamples = 0;            // track samples that stayed in the pending triangle (no edit)
+  long slowSamples = 0;            // track samples that walked or edited the mesh (timed)
   [[nodiscard]] double remeshMicrosPerCutTriangle() const {
     return trianglesCut > 0 ? remeshSeconds * 1e6 / static_cast<double>(trianglesCut) : 0.0;
   }
