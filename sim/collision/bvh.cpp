@@ -790,6 +790,7 @@ struct TriangleSat {
 
 void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, const Vector3d& p2,
                                     std::vector<Face>& out) const {
+  const double g = pad_;
   const Vector3d tri[3] = {p0, p1, p2};
   const TriangleSat sat(tri);
   Box tb;
@@ -798,8 +799,8 @@ void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, cons
   // for the SAT's own roundings.
   traverse(
       [&](const Node& h) {
-        const Vector3d lo = Vector3d(h.lo[0], h.lo[1], h.lo[2]).array() - pad_;
-        const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + pad_;
+        const Vector3d lo = Vector3d(h.lo[0], h.lo[1], h.lo[2]).array() - g;
+        const Vector3d hi = Vector3d(h.hi[0], h.hi[1], h.hi[2]).array() + g;
         if (!(lo.array() <= hi.array()).all()) return false;  // empty leaf
         if ((lo.array() > tb.max.array()).any() || (hi.array() < tb.min.array()).any()) return false;
         return sat.meets(0.5 * (lo + hi), 0.5 * (hi - lo), h.leaf());
