@@ -344,7 +344,11 @@ int main(int argc, char** argv) {
       window.pollPhysics();
       const ld::gui::RenderMesh& shown = window.view()->mesh();
       const ld::gui::Bounds b = shown.bounds();
-      std::size_t wallTriangles = 0;
+      std::size_t wallTriangles = 0, vertices = 0, triangles = 0;
+      for (const auto& o : window.view()->objects()) {
+        vertices += o.positions.size();
+        triangles += o.triangles.size();
+      }
       for (const auto& o : window.view()->objects())
         wallTriangles += static_cast<std::size_t>(
             std::count_if(o.faceKind.begin(), o.faceKind.end(), [](auto k) { return k != 0; }));
@@ -358,8 +362,8 @@ int main(int argc, char** argv) {
           "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"cut_wall_triangles\":%zu,"
           "\"triangles_cut\":%ld,\"objects\":%zu,\"objects_after_cuts\":%zu,\"status\":\"%s\"}\n",
           startTime, session->simTime(), static_cast<double>(b.min[2]), static_cast<double>(b.max[2]), moved[0],
-          moved[1], moved[2], shown.positions.size(), shown.triangles.size(), wallTriangles, session->trianglesCut(),
-          window.objectCount(), cutObjects, qPrintable(session->status()));
+          moved[1], moved[2], vertices, triangles, wallTriangles, session->trianglesCut(), window.objectCount(),
+          cutObjects, qPrintable(session->status()));
       take();
     });
     poll.start(10);

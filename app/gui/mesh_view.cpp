@@ -3,6 +3,7 @@
 #include <QMouseEvent>
 #include <QWheelEvent>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -148,9 +149,20 @@ float MeshView::aspect() const {
 }
 
 void MeshView::fitToView() {
-  if (mesh().empty()) return;
-  const Bounds b = mesh().bounds();
-  camera_.fit(QVector3D(b.min[0], b.min[1], b.min[2]), QVector3D(b.max[0], b.max[1], b.max[2]), aspect());
+  // Every object: pieces moved away stay in the picture.
+  Bounds all;
+  bool any = false;
+  for (const auto& o : objects_) {
+    if (o.empty()) continue;
+    const Bounds b = o.bounds();
+    for (std::size_t a = 0; a < 3; ++a) {
+      all.min[a] = any ? std::min(all.min[a], b.min[a]) : b.min[a];
+      all.max[a] = any ? std::max(all.max[a], b.max[a]) : b.max[a];
+    }
+    any = true;
+  }
+  if (!any) return;
+  camera_.fit(QVector3D(all.min[0], all.min[1], all.min[2]), QVector3D(all.max[0], all.max[1], all.max[2]), aspect());
   update();
 }
 

@@ -36,8 +36,8 @@ physics::Params PhysicsSession::defaultParams() {
   // GUI's tissue is five times denser: omega * dt stays about 1.
   params.tissue.density = 2.5e-5;
   // Home springs weaker than the mesh springs' pre-stretch tension would allow a
-  // wound to gape by only a fraction of a millimetre; at 3 mN/mm it opens visibly.
-  params.tissue.homeK = 3.0;
+  // wound to gape by only about a millimetre; at 1.5 mN/mm it opens visibly.
+  params.tissue.homeK = 1.5;
   return params;
 }
 
@@ -92,6 +92,7 @@ void PhysicsSession::drain() {
 }
 
 void PhysicsSession::sync() {
+  post([this] { publish(); });  // the next update() then shows every command's effect
   std::unique_lock lock(queueMutex_);
   const std::uint64_t target = posted_;
   queueDone_.wait(lock, [&] { return done_ >= target || stop_.load(); });
@@ -209,12 +210,12 @@ void PhysicsSession::publish() {
 bool PhysicsSession::update(SceneFrame& out, bool& topologyChanged) {
   std::lock_guard lock(frameMutex_);
   topologyChanged = false;
-  if (frame_.serial == taken_ && !out.objects.empty()) return false;
+  if (frame_.serial == taken_) return false;
   taken_ = frame_.serial;
   std::vector<std::pair<int, std::uint64_t>> topo;
   topo.reserve(frame_.objects.size());
   for (const auto& o : frame_.objects) topo.emplace_back(o.id, o.topology);
-  topologyChanged = topo != takenTopology_ || out.objects.size() != frame_.objects.size();
+  topologyChanged = topo != takenTopology_;  // ids and versions: pieces added change it too
   takenTopology_ = std::move(topo);
   out = frame_;
   return true;
