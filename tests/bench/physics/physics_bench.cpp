@@ -1,14 +1,22 @@
-// Step cost of each integrator on the default slab at 1k … 1M triangles, in time per
-// step and ns per spring; the symplectic step on 1 and 2 threads, with and without the
-// stability monitor, and after 1000 cut triangles.
-//   physics_bench --benchmark_min_time=0.2
+// Step cost of each integrator on slabs of 1k, 10k, 100k and 1M triangles (time per
+// step and ns per spring, CPU time of the stepping thread); the symplectic step on
+// one and two threads, with and without the stability monitor; the symplectic step of
+// the default slab before and after ~1000 triangles cut with the CutEngine (stepped
+// in place on the engine's mesh); the cost of a topology edit to the physics.
+//   physics_bench                                     (all, about a minute)
+//   physics_bench --benchmark_filter='Symplectic'     (the targets)
+// 1M triangles: not for implicit Euler (assembling and solving the sparse system takes
+// seconds per step there) nor RK4 (four force passes; the 100k figure scales).
 #include <benchmark/benchmark.h>
 
 #include <map>
 #include <random>
 
+#include "sim/cutting/cutter.h"
+#include "sim/io/mesh_io.h"
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/scenes.h"
+#include "tests/sim/cutting/cut_test_meshes.h"
 
 namespace ld::physics {
 namespace {
@@ -25,10 +33,19 @@ const State& baseState(int triangles) {
 }
 
 // A step small enough to be stable on every size (the finest mesh has the stiffest
-// springs), so that the benchmark measures arithmetic, not NaN handling.
+// springs), so that the benchmark measures arithmetic, not recovery.
 constexpr double kDt = 1e-6;
 
+void perSpring(benchmark::State& bs, const Dynamics& d, const mesh::SurfaceMesh& m) {
+  const double springs = static_cast<double>(d.cache.liveSprings);
+  bs.counters["triangles"] = static_cast<double>(m.nFaces());
+  bs.counters["springs"] = springs;
+  bs.counters["ns_per_spring"] =
+      benchmark::Counter(springs * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 void runSteps(benchmark::State& bs, Method m, bool monitor, int threads) {
+  FlushDenormals ftz;
   const int tris = static_cast<int>(bs.range(0));
   State s = baseState(tris);
   Params p;
@@ -43,60 +60,115 @@ void runSteps(benchmark::State& bs, Method m, bool monitor, int threads) {
       rawStep(p, s, m, kDt);
     benchmark::ClobberMemory();
   }
-  const double springs = static_cast<double>(s.mesh.nEdges());
-  bs.counters["triangles"] = static_cast<double>(s.mesh.nFaces());
-  bs.counters["springs"] = springs;
-  bs.counters["ns_per_spring"] =
-      benchmark::Counter(springs * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  perSpring(bs, s, s.mesh);
 }
 
 void BM_ExplicitEuler(benchmark::State& bs) { runSteps(bs, Method::ExplicitEuler, false, 1); }
 void BM_Symplectic(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, false, 1); }
 void BM_Symplectic2Threads(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, false, 2); }
 void BM_SymplecticMonitored(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, true, 1); }
+void BM_SymplecticMonitored2Threads(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, true, 2); }
 void BM_Verlet(benchmark::State& bs) { runSteps(bs, Method::Verlet, false, 1); }
 void BM_Rk4(benchmark::State& bs) { runSteps(bs, Method::Rk4, false, 1); }
 void BM_ImplicitEuler(benchmark::State& bs) { runSteps(bs, Method::ImplicitEuler, false, 1); }
 
-#define LD_SIZES ->Arg(1000)->Arg(10000)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)
-BENCHMARK(BM_ExplicitEuler) LD_SIZES;
+#define LD_SMALL ->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMicrosecond)->MinTime(0.1)
+#define LD_SIZES LD_SMALL->Arg(1000000)
 BENCHMARK(BM_Symplectic) LD_SIZES;
-BENCHMARK(BM_Symplectic2Threads) LD_SIZES;
+BENCHMARK(BM_Symplectic2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticMonitored) LD_SIZES;
+BENCHMARK(BM_SymplecticMonitored2Threads) LD_SIZES->UseRealTime();
+BENCHMARK(BM_ExplicitEuler) LD_SIZES;
 BENCHMARK(BM_Verlet) LD_SIZES;
-BENCHMARK(BM_Rk4) LD_SIZES;
-// Assembling and solving the sparse system each step: 1M triangles would take seconds.
-BENCHMARK(BM_ImplicitEuler)->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Rk4) LD_SMALL;
+BENCHMARK(BM_ImplicitEuler) LD_SMALL;
 
-// The symplectic step on 100k triangles after 1000 triangles were cut (simulated by
-// splitting 1000 faces and running the cutter's hooks): new vertices and springs are
-// appended at the end of the arrays, so memory order no longer follows the mesh.
-void BM_SymplecticAfterCuts(benchmark::State& bs) {
-  const int cuts = static_cast<int>(bs.range(0));
-  State s = baseState(100000);
-  Params p;
-  std::mt19937 rng(1);
-  std::uniform_int_distribution<std::size_t> pick(0, s.mesh.facesSize() - 1);
-  for (int c = 0; c < cuts; ++c) {
-    mesh::Face f(pick(rng));
-    if (!s.mesh.isValid(f)) continue;
-    const auto vs = s.mesh.vertices(f);
-    const auto v = s.mesh.splitFace(f, s.mesh.centroid(f));
-    initVertexInFace(s.mesh, v, vs[0], vs[1], vs[2], Eigen::Vector3d::Constant(1.0 / 3.0), p.tissue);
+// ---- cutting -------------------------------------------------------------------
+
+// The default model with the tissue properties, in a CutEngine (which owns it).
+struct CutScene {
+  cutting::CutEngine engine;
+  int id = 0;
+  Params params;
+  Dynamics dyn;
+  long trianglesCut = 0;
+  CutScene() {
+    mesh::SurfaceMesh m = io::readMesh(LD_RESOURCES_DIR "/models/tissue_slab.obj");
+    attachTissueProperties(m, params.tissue);
+    id = engine.addObject(std::move(m));
   }
-  rawStep(p, s, Method::SymplecticEuler, kDt);
+  mesh::SurfaceMesh& mesh() { return engine.object(id).mesh; }
+  // Groove strokes across the top (tip 2 mm deep) until `target` triangles are cut,
+  // the physics stepping in place between strokes, as in a session.
+  void cut(long target) {
+    for (int k = 0; engine.stats().trianglesCut < target && k < 60; ++k) {
+      const double y = -27.0 + 1.37 * k;
+      cutting::test::stroke(engine, Eigen::Vector3d(-45, y, 0.5), Eigen::Vector3d(45, y + 0.9, 0.5),
+                            Eigen::Vector3d(0, 0, -1), 200.0, 1000.0);
+      for (int i = 0; i < 5; ++i) step(params, dyn, mesh(), 1e-4);
+    }
+    trianglesCut = engine.stats().trianglesCut;
+  }
+};
+
+// range(0): triangles to cut (0 = before); range(1): 1 = rebuild the cache from
+// scratch after cutting (otherwise it has followed the edits locally); range(2): 1 =
+// with the stability monitor (substeps it needs for new stiff springs show here).
+void BM_SymplecticAfterCuts(benchmark::State& bs) {
+  FlushDenormals ftz;
+  CutScene sc;
+  step(sc.params, sc.dyn, sc.mesh(), 1e-4);
+  sc.cut(bs.range(0));
+  if (bs.range(1) == 1) sc.dyn.invalidate();
+  step(sc.params, sc.dyn, sc.mesh(), 1e-4);
+  const bool monitor = bs.range(2) == 1;
+  int substeps = 1;
   for (auto _ : bs) {
-    rawStep(p, s, Method::SymplecticEuler, kDt);
+    if (monitor)
+      substeps = step(sc.params, sc.dyn, sc.mesh(), 1e-4).substeps;
+    else
+      rawStep(sc.params, sc.dyn, sc.mesh(), Method::SymplecticEuler, 1e-4);
     benchmark::ClobberMemory();
   }
-  const double springs = static_cast<double>(s.mesh.nEdges());
-  bs.counters["triangles"] = static_cast<double>(s.mesh.nFaces());
-  bs.counters["ns_per_spring"] =
-      benchmark::Counter(springs * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  perSpring(bs, sc.dyn, sc.mesh());
+  bs.counters["substeps"] = substeps;
+  bs.counters["triangles_cut"] = static_cast<double>(sc.trianglesCut);
+  bs.counters["added_springs"] = static_cast<double>(sc.dyn.cache.springs.size() - sc.dyn.cache.nCsr);
+  bs.counters["vertices"] = static_cast<double>(sc.mesh().nVertices());
 }
-BENCHMARK(BM_SymplecticAfterCuts)->Arg(0)->Arg(1000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SymplecticAfterCuts)
+    ->Args({0, 0, 0})
+    ->Args({1000, 0, 0})
+    ->Args({1000, 1, 0})
+    ->Args({0, 0, 1})
+    ->Args({1000, 0, 1})
+    ->Unit(benchmark::kMicrosecond)
+    ->MinTime(0.2);
 
-// Rebuilding the spring cache after a topology edit (what one cut costs the physics).
+// What a topology edit costs the physics: one edge split with the tissue hooks, then
+// a step (the cache follows the edit locally); compare with BM_SymplecticMonitored.
+void BM_StepAfterEdgeSplit(benchmark::State& bs) {
+  FlushDenormals ftz;
+  State s = baseState(static_cast<int>(bs.range(0)));
+  Params p;
+  step(p, s, kDt);
+  std::mt19937 rng(1);
+  for (auto _ : bs) {
+    bs.PauseTiming();
+    mesh::Edge e(static_cast<int>(rng() % s.mesh.edgesSize()));
+    while (!s.mesh.isValid(e)) e = mesh::Edge(static_cast<int>(rng() % s.mesh.edgesSize()));
+    const auto a = s.mesh.vertex(e, 0), b = s.mesh.vertex(e, 1);
+    const auto v = s.mesh.splitEdge(e, 0.5 * (s.mesh.position(a) + s.mesh.position(b)));
+    initVertexOnEdge(s.mesh, v, a, b, 0.5, p.tissue);
+    bs.ResumeTiming();
+    step(p, s, kDt);
+  }
+  perSpring(bs, s, s.mesh);
+  bs.counters["rebuilds"] = static_cast<double>(s.cache.rebuilds);
+}
+BENCHMARK(BM_StepAfterEdgeSplit)->Arg(100000)->Unit(benchmark::kMicrosecond)->Iterations(200);
+
+// Rebuilding the spring cache from scratch (a new layout: compaction, copy).
 void BM_CacheRebuild(benchmark::State& bs) {
   State s = baseState(static_cast<int>(bs.range(0)));
   Params p;
@@ -105,7 +177,7 @@ void BM_CacheRebuild(benchmark::State& bs) {
     rawStep(p, s, Method::SymplecticEuler, kDt);
   }
 }
-BENCHMARK(BM_CacheRebuild)->Arg(100000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CacheRebuild)->Arg(100000)->Unit(benchmark::kMicrosecond)->MinTime(0.1);
 
 }  // namespace
 }  // namespace ld::physics
