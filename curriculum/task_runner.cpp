@@ -4,7 +4,7 @@
 #include <optional>
 
 #include "curriculum/tissue_path.h"
-#include "sim/collision/bvh.h"
+#include "sim/collision/segment_triangle.h"
 #include "sim/instruments/instrument.h"
 
 namespace ld::curriculum {
@@ -13,11 +13,6 @@ namespace {
 using instruments::Hand;
 using instruments::Pose;
 using instruments::Tool;
-
-struct Hit {
-  Eigen::Vector3d point;
-  mesh::Face face;
-};
 
 Pose interpolate(const Pose& a, const Pose& b, double u) {
   Pose p;
@@ -31,48 +26,51 @@ Pose interpolate(const Pose& a, const Pose& b, double u) {
   return p;
 }
 
-class Contacts {
- public:
-  explicit Contacts(const mesh::SurfaceMesh& m) : m_(m), bvh_(m) {}
-  // Where the cutting edges meet the surface: of all hits, the one nearest the working
-  // point (the hook's elbow, the scalpel's tip), so that a hook lying flat on the
-  // tissue or dipping its tip does not make the contact point jump along the edge.
-  std::optional<Hit> cuttingHit(Tool tool, const Pose& pose) {
-    std::optional<Hit> best;
-    double bestD = 0.0;
-    bool bestCoplanar = true;
-    bool first = true;
-    Eigen::Vector3d ref = pose.tip;
-    for (const auto& s : instruments::segments(tool, pose)) {
-      if (s.role != instruments::SegmentRole::CuttingEdge) continue;
-      if (first) ref = s.a;
-      first = false;
-      bvh_.intersectSegment(m_, s.a, s.b, hits_);
-      for (const auto& h : hits_) {
-        // A coplanar overlap only counts when nothing crosses: its point is ill-defined.
-        const bool coplanar = h.kind == collision::HitKind::Coplanar;
-        const double d = (h.point - ref).squaredNorm();
-        if (!best || (bestCoplanar && !coplanar) || (coplanar == bestCoplanar && d < bestD)) {
-          best = Hit{h.point, h.face};
-          bestD = d;
-          bestCoplanar = coplanar;
-        }
-      }
-    }
-    return best;
-  }
+// The working point of a cutting tool: the hook's elbow, the scalpel's tip (the start
+// of its first cutting edge).
+Eigen::Vector3d workingPoint(Tool tool, const Pose& pose, const instruments::Settings& settings) {
+  for (const auto& s : instruments::segments(tool, pose, settings))
+    if (s.role == instruments::SegmentRole::CuttingEdge) return s.a;
+  return pose.tip;
+}
 
- private:
-  const mesh::SurfaceMesh& m_;
-  collision::TriangleBvh bvh_;
-  std::vector<collision::SurfaceHit> hits_;
-};
+// Of the cutting edges' contacts, the one nearest the working point, so that a hook
+// lying flat on the tissue or dipping its tip does not make the contact point jump
+// along the edge.
+std::optional<Eigen::Vector3d> cuttingContact(const std::vector<cutting::Contact>& contacts,
+                                              const Eigen::Vector3d& ref) {
+  std::optional<Eigen::Vector3d> best;
+  double bestD = 0.0;
+  for (const auto& c : contacts) {
+    if (c.role != instruments::SegmentRole::CuttingEdge) continue;
+    const double d = (c.point - ref).squaredNorm();
+    if (!best || d < bestD) {
+      best = c.point;
+      bestD = d;
+    }
+  }
+  return best;
+}
+
+// Where the cutting edges touch any tissue object at `pose` (nearest the working
+// point; no change to the meshes): used only to time the start and end of a
+// contact between two samples.
+std::optional<Eigen::Vector3d> touchAt(const cutting::CutEngine& engine, Tool tool, const Pose& pose) {
+  const Eigen::Vector3d ref = workingPoint(tool, pose, engine.params().tool);
+  std::optional<Eigen::Vector3d> best;
+  for (const auto& s : instruments::segments(tool, pose, engine.params().tool)) {
+    if (s.role != instruments::SegmentRole::CuttingEdge) continue;
+    for (const auto& o : engine.objects())
+      for (const auto& h : collision::intersectSegment(o.mesh, s.a, s.b))
+        if (!best || (h.point - ref).squaredNorm() < (*best - ref).squaredNorm()) best = h.point;
+  }
+  return best;
+}
 
 struct HandState {
   bool have = false;
   devices::PoseSample last;
   bool contact = false;
-  Hit hit{};
   // grasper
   bool grasping = false;
   Eigen::Vector3d grasp = Eigen::Vector3d::Zero();
@@ -82,15 +80,26 @@ struct HandState {
 
 RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::Trajectory& tr, const RunOptions& opt) {
   RunResult r;
-  TissuePath drawn = TissuePath::embed(m, task.path, 1.0);
-  Contacts contacts(m);
+  cutting::CutEngine engine(opt.cut);
+  int obj = 0;
+  {
+    mesh::SurfaceMesh tissue = m;
+    tagOriginalFaces(tissue);  // one cut-path piece per original triangle
+    obj = engine.addObject(std::move(tissue));
+  }
+  // Objects are looked up by id every time: separation may add objects.
+  auto tissue = [&]() -> const mesh::SurfaceMesh& { return engine.object(obj).mesh; };
+  TissuePath drawn = TissuePath::embed(tissue(), task.path, 1.0);
   LiveMetrics live(task.path, task.metrics, opt.seriesInterval);
   CutPathRecorder recorder;
   std::size_t fed = 0;
   std::optional<Eigen::Vector3d> lastRaw;  // previous cut point of the stroke (for path crossings)
+  int lastObject = -1;
+  mesh::Face hint;  // face of the previous cut point (local search)
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
+  auto followEdits = [&] { r.pathReembedded += drawn.followEdits(tissue()); };
   auto feedCut = [&](double t) {
     const Polyline& p = recorder.path();
     for (; fed < p.size(); ++fed) {
@@ -98,20 +107,38 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
       if (p[fed].stop) live.endCutPiece();
     }
   };
-  auto cutAt = [&](double t, const Hit& h) {
-    recorder.contact(m, h.face, h.point);
-    feedCut(t);
-    if (lastRaw) {
-      const int n = drawn.cutAcross(m, *lastRaw, h.point, m.faceNormal(h.face));
-      for (int k = 0; k < n; ++k) live.addPathCrossing(t);
-    }
-    lastRaw = h.point;
-  };
   auto endCut = [&](double t) {
     recorder.loseContact();
     feedCut(t);
     live.endCutPiece();
     lastRaw.reset();
+  };
+  // The cut points the engine reports for this hand's sample: the cut path follows
+  // the one nearest the working point (a hook descending through the surface also
+  // slices with its other edge, ahead of the elbow: that is not where it works);
+  // a stop when none is left.
+  auto recordCut = [&](double t, const std::vector<cutting::CutPoint>& cps, const Eigen::Vector3d& ref) {
+    if (cps.empty()) {
+      if (lastRaw) endCut(t);
+      return;
+    }
+    const cutting::CutPoint* cp = &cps.front();
+    for (const auto& c : cps)
+      if ((c.point - ref).squaredNorm() < (cp->point - ref).squaredNorm()) cp = &c;
+    const mesh::SurfaceMesh& cm = engine.object(cp->object).mesh;
+    double d = 0.0;
+    SurfaceLocation loc = closestLocationNear(cm, cp->object == lastObject ? hint : mesh::Face(), cp->point, 2, &d);
+    if (d > 1e-3) loc = closestLocation(cm, cp->point, &d);
+    if (!cm.isValid(loc.face)) return;
+    hint = loc.face;
+    lastObject = cp->object;
+    recorder.contact(cm, loc.face, cp->point);
+    feedCut(t);
+    if (lastRaw && cp->object == obj) {
+      const int n = drawn.cutAcross(tissue(), *lastRaw, cp->point, cm.faceNormal(loc.face));
+      for (int k = 0; k < n; ++k) live.addPathCrossing(t);
+    }
+    lastRaw = cp->point;
   };
 
   if (!tr.samples.empty()) live.start(tr.samples.front().t);
@@ -123,10 +150,10 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
       const bool closed = s.pose.jaw <= opt.grabJaw;
       if (closed && !hs.grasping) {
         double d = 0.0;
-        const SurfaceLocation loc = closestLocation(m, s.pose.tip, &d);
-        if (m.isValid(loc.face) && d <= opt.grabDistance) {
+        const SurfaceLocation loc = closestLocation(tissue(), s.pose.tip, &d);
+        if (tissue().isValid(loc.face) && d <= opt.grabDistance) {
           hs.grasping = true;
-          hs.grasp = position(m, loc);
+          hs.grasp = position(tissue(), loc);
         }
       } else if (!closed) {
         hs.grasping = false;
@@ -138,67 +165,67 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     }
     const bool cuttingTool = s.tool == Tool::Hook || s.tool == Tool::Scalpel;
     if (!cuttingTool) continue;
-    const std::optional<Hit> hit = contacts.cuttingHit(s.tool, s.pose);
+    if (hs.have && hs.last.tool != s.tool) {
+      engine.endStroke(s.hand);  // instrument changed: the old one was lifted
+      followEdits();
+      endCut(s.t);
+    }
+    const cutting::StepResult step = engine.step(s.hand, s.tool, s.pose);
+    if (step.topologyChanged) followEdits();
+    const Eigen::Vector3d ref = workingPoint(s.tool, s.pose, engine.params().tool);
+    const std::optional<Eigen::Vector3d> hit = cuttingContact(step.contacts, ref);
     const bool now = hit.has_value();
     if (hs.have && hs.last.tool == s.tool && now != hs.contact && s.t > hs.last.t) {
-      // Contact starts or ends between the two samples: find when.
+      // Contact starts or ends between the two samples: find when (sampling-rate
+      // independent contact times), on the tissue as it is now.
+      // The contact point nearest the transition on the contact side, so that the
+      // dwell sees the motion up to the transition at any sampling rate.
       double lo = 0.0, hi = 1.0;
-      std::optional<Hit> edge = now ? hit : hs.contact ? std::optional<Hit>(hs.hit) : std::nullopt;
+      std::optional<Eigen::Vector3d> edge;
       for (int it = 0; it < opt.bisections; ++it) {
         const double mid = 0.5 * (lo + hi);
-        const auto h = contacts.cuttingHit(s.tool, interpolate(hs.last.pose, s.pose, mid));
-        if (h.has_value() == hs.contact) {
-          lo = mid;
-          if (h) edge = h;
-        } else {
-          hi = mid;
-          if (h) edge = h;
-        }
+        const auto h = touchAt(engine, s.tool, interpolate(hs.last.pose, s.pose, mid));
+        (h.has_value() == hs.contact ? lo : hi) = mid;
+        if (h) edge = h;
       }
       const double tc = hs.last.t + (now ? hi : lo) * (s.t - hs.last.t);
-      const bool wasCutting = hs.contact && (s.tool == Tool::Scalpel || hs.last.pose.pedal);
       if (now) {
-        live.addContact({tc, true, edge->point});
-        if (s.tool == Tool::Scalpel || hs.last.pose.pedal) cutAt(tc, *edge);
+        live.addContact({tc, true, edge ? *edge : *hit});
       } else {
-        if (edge) {
-          live.addContact({tc, true, edge->point});
-          if (wasCutting) cutAt(tc, *edge);
-        }
+        if (edge) live.addContact({tc, true, *edge});
         live.addContact({tc, false, Eigen::Vector3d::Zero()});
-        if (wasCutting) endCut(tc);
       }
     }
     if (now) {
       ++r.contactSamples;
-      live.addContact({s.t, true, hit->point});
-      const bool cutting = s.tool == Tool::Scalpel || s.pose.pedal;
-      if (cutting)
-        cutAt(s.t, *hit);
-      else if (lastRaw)
-        endCut(s.t);  // pedal released: the stroke ends here
+      live.addContact({s.t, true, *hit});
     } else {
       live.addContact({s.t, false, Eigen::Vector3d::Zero()});
-      if (lastRaw) endCut(s.t);
     }
+    recordCut(s.t, step.cutPoints, ref);
     hs.contact = now;
-    if (hit) hs.hit = *hit;
     hs.last = s;
     hs.have = true;
   }
   const double tEnd = tr.samples.empty() ? 0.0 : tr.samples.back().t;
+  engine.finish();
+  followEdits();
   endCut(tEnd);
   r.metrics = live.finish(tEnd);
   r.assessment = assess(r.metrics, task.scoring, task.proficiency);
-  r.drawn = drawn.positions(m);
+  r.drawn = drawn.positions(tissue());
+  r.drawnAsDrawn = drawn.drawnPositions(tissue());
   r.cut = recorder.path();
   r.series = live.series();
+  r.cutStats = engine.stats();
+  r.pathGlobalSearches = drawn.globalSearches();
+  r.objects = engine.objects().size();
   return r;
 }
 
 nlohmann::json metricsJson(const Metrics& m, const Assessment& a) {
-  auto dev = [](const Deviation& d) {
-    return nlohmann::json{{"xy", d.xy}, {"yz", d.yz}, {"xz", d.xz}, {"total", d.total()}};
+  auto dev = [&](const Deviation& d) {
+    return nlohmann::json{{"xy", d.xy}, {"yz", d.yz}, {"xz", d.xz}, {"total", d.total()}, {"no_cut", m.noCut}};
   };
   return {{"deviation", dev(m.deviation)},
           {"deviation_thesis", dev(m.deviationThesis)},
@@ -225,6 +252,15 @@ nlohmann::json runJson(const Task& task, const RunResult& r) {
   j["task"] = {{"id", task.id}, {"version", task.version}, {"hash", contentHash(task)}};
   j["samples"] = r.samples;
   j["cut_points"] = r.cut.size();
+  j["cutting"] = {{"engine", "ld::cutting::CutEngine"},           {"triangles_cut", r.cutStats.trianglesCut},
+                  {"triangles_added", r.cutStats.trianglesAdded}, {"walk_failures", r.cutStats.walkFailures},
+                  {"separations", r.cutStats.separations},        {"objects", r.objects}};
+  j["drawn_path"] = {{"points", r.drawn.size()},
+                     {"pieces", pieces(r.drawn).size()},
+                     {"reembedded", r.pathReembedded},
+                     {"global_searches", r.pathGlobalSearches}};
+  // Honest about the model behind the stretch force (README: curriculum).
+  j["stretch_force"]["model"] = "estimate: home stiffness x grasper displacement (no physics in task run)";
   return j;
 }
 

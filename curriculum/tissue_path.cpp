@@ -127,7 +127,115 @@ TissuePath TissuePath::embed(const SurfaceMesh& m, const Polyline& world, double
     hint = loc.face;
     tp.pts_.push_back({loc, world[i].stop || i + 1 == world.size(), false});
   }
+  tp.startTracking(m);
   return tp;
+}
+
+void TissuePath::startTracking(const SurfaceMesh& m) {
+  world_ = worldPoints(m);
+  byFace_.clear();
+  for (std::size_t i = 0; i < pts_.size(); ++i)
+    byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
+  layout_ = m.layoutVersion();
+  journalFaces_ = m.editedFaces().size();
+}
+
+void TissuePath::refreshWorld(const SurfaceMesh& m) {
+  for (std::size_t i = 0; i < pts_.size(); ++i) world_[i] = position(m, pts_[i].loc);
+}
+
+namespace {
+
+int faceKind(const SurfaceMesh& m, Face f) {
+  // Walls the cutter adds (groove, side) share the cut's edges with the surface: a
+  // point on such an edge stays on the surface face.
+  const auto kind = m.getFaceProperty<int>("f:cut_kind");
+  return kind ? kind[f] : 0;
+}
+
+}  // namespace
+
+void TissuePath::relocate(const SurfaceMesh& m, std::size_t i, std::span<const Face> edited) {
+  const Eigen::Vector3d& p = world_[i];
+  const double tol = 1e-9 * (1.0 + p.cwiseAbs().maxCoeff());
+  const Face old = pts_[i].loc.face;
+  SurfaceLocation best;
+  double bestD2 = std::numeric_limits<double>::infinity();
+  bool bestWall = true;
+  auto consider = [&](Face f) {
+    if (!m.isValid(f)) return;
+    double d2;
+    const SurfaceLocation loc = closestIn(m, f, p, d2);
+    const bool wall = faceKind(m, f) != 0;
+    const bool within = d2 <= tol * tol, bestWithin = bestD2 <= tol * tol;
+    // Among faces holding the point (within tolerance) prefer the surface, else nearest.
+    const bool better = within != bestWithin ? within
+                        : within             ? (bestWall && !wall) || (wall == bestWall && d2 < bestD2)
+                                             : d2 < bestD2;
+    if (better) {
+      best = loc;
+      bestD2 = d2;
+      bestWall = wall;
+    }
+  };
+  if (m.isValid(old)) {
+    // The old face and the faces sharing a vertex with it, twice.
+    std::unordered_set<Face> seen{old};
+    std::vector<Face> frontier{old};
+    for (int r = 0; r <= 2 && !frontier.empty(); ++r) {
+      std::vector<Face> next;
+      for (Face f : frontier) {
+        consider(f);
+        for (mesh::Vertex v : m.vertices(f))
+          for (Face g : m.faces(v))
+            if (seen.insert(g).second) next.push_back(g);
+      }
+      frontier = std::move(next);
+    }
+  }
+  if (!(bestD2 <= tol * tol))
+    for (Face f : edited) consider(f);
+  if (!(bestD2 <= tol * tol)) {
+    ++global_;
+    double d = 0.0;
+    const SurfaceLocation loc = closestLocation(m, p, &d);
+    if (m.isValid(loc.face) && d * d < bestD2) best = loc;
+  }
+  if (!m.isValid(best.face)) throw PathError("followEdits: a path point has no face left in the mesh");
+  pts_[i].loc = best;
+}
+
+std::size_t TissuePath::followEdits(const SurfaceMesh& m) {
+  if (m.layoutVersion() != layout_ || m.editedFaces().size() < journalFaces_) {
+    // Indices changed: every point is searched again (rare: separation, compaction).
+    for (std::size_t i = 0; i < pts_.size(); ++i) {
+      double d = 0.0;
+      pts_[i].loc = closestLocation(m, world_[i], &d);
+      if (!m.isValid(pts_[i].loc.face)) throw PathError("followEdits: the mesh has no face left");
+      ++global_;
+    }
+    const std::vector<Eigen::Vector3d> keep = world_;
+    startTracking(m);
+    world_ = keep;
+    return pts_.size();
+  }
+  const std::span<const Face> edited = m.editedFaces().subspan(journalFaces_);
+  journalFaces_ = m.editedFaces().size();
+  if (edited.empty() || byFace_.empty()) return 0;
+  std::vector<std::uint32_t> affected;
+  for (Face f : edited) {
+    auto it = byFace_.find(f.idx());
+    if (it == byFace_.end()) continue;
+    affected.insert(affected.end(), it->second.begin(), it->second.end());
+    byFace_.erase(it);
+  }
+  std::sort(affected.begin(), affected.end());
+  affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
+  for (std::uint32_t i : affected) {
+    relocate(m, i, edited);
+    byFace_[pts_[i].loc.face.idx()].push_back(i);
+  }
+  return affected.size();
 }
 
 Polyline TissuePath::positions(const SurfaceMesh& m) const {
@@ -172,6 +280,7 @@ void TissuePath::reembed(const SurfaceMesh& m, const std::vector<Eigen::Vector3d
     }
     pts_[i].loc = closestLocation(m, p, &d);
   }
+  startTracking(m);
 }
 
 void TissuePath::remap(const mesh::Compaction& c) {
@@ -181,6 +290,10 @@ void TissuePath::remap(const mesh::Compaction& c) {
     q.loc.face = c.faceMap[q.loc.face.idx()];
     if (!q.loc.face.isValid()) throw PathError("remap: a path point's face was removed");
   }
+  byFace_.clear();
+  for (std::size_t i = 0; i < pts_.size(); ++i)
+    byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
+  layout_ = ~std::uint64_t{0};  // the caller's mesh has a new layout: next followEdits rebuilds
 }
 
 bool segmentsCross(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,

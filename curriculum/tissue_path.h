@@ -5,6 +5,8 @@
 // subdivided; the drawn path is broken (a stop) where the cut crosses it.
 #include <cstdint>
 #include <optional>
+#include <span>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -64,13 +66,33 @@ class TissuePath {
   // After garbageCollection().
   void remap(const mesh::Compaction& c);
 
+  // Follows the topology edits of `m` since embed() or the last call, read from the
+  // mesh's edit journal: only points whose face was edited are embedded again, at
+  // the world position they had (cached), in the edited faces or the two rings
+  // around their old face; the cost depends on the edit, not on the path or mesh
+  // size. A new layout (garbage collection) re-embeds every point by a global
+  // search. Call refreshWorld() after the tissue moved (physics) and before the
+  // next edit. Returns the number of points embedded again.
+  std::size_t followEdits(const mesh::SurfaceMesh& m);
+  void refreshWorld(const mesh::SurfaceMesh& m);
+  // Points that needed a search of the whole mesh (layout changes, lost points).
+  [[nodiscard]] std::size_t globalSearches() const { return global_; }
+
   // The cut moved from a to b on the surface (normal n there): every path segment it
   // crosses is broken (thesis 6.3.3). Returns the number of crossings.
   int cutAcross(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                 const Eigen::Vector3d& n, double maxGap = 1.0);
 
  private:
+  void startTracking(const mesh::SurfaceMesh& m);
+  void relocate(const mesh::SurfaceMesh& m, std::size_t i, std::span<const mesh::Face> edited);
+
   std::vector<Point> pts_;
+  // Edit following: cached world positions, the points of each face, the journal cursor.
+  std::vector<Eigen::Vector3d> world_;
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> byFace_;
+  std::uint64_t layout_ = 0;
+  std::size_t journalFaces_ = 0, global_ = 0;
 };
 
 // Records the cut path (thesis 6.3.1): the points where the cutting edge meets the

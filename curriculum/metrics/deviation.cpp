@@ -134,6 +134,19 @@ Deviation deviation(const Polyline& drawn, const Polyline& cut) {
   return d;
 }
 
+Deviation deviationWithoutCut(const Polyline& drawn, double band) {
+  Deviation d;
+  for (Plane p : {Plane::XY, Plane::YZ, Plane::XZ}) {
+    std::vector<Eigen::Vector2d> loop;
+    for (const PathPoint& q : drawn) loop.push_back(project(q.p, p));
+    double len = 0.0;
+    for (std::size_t i = 1; i < drawn.size(); ++i)
+      if (!drawn[i - 1].stop) len += (project(drawn[i].p, p) - project(drawn[i - 1].p, p)).norm();
+    d.plane(p) = absWindingArea(loop) + 2.0 * band * len;
+  }
+  return d;
+}
+
 namespace {
 
 double triArea(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {

@@ -41,6 +41,14 @@ std::vector<Eigen::Vector2d> deviationLoop(const Polyline& drawn, const Polyline
 
 Deviation deviation(const Polyline& drawn, const Polyline& cut);
 
+// An attempt that cut nothing. DESIGN.md's loop with an empty cut path is the drawn
+// path closed by the segment from its end back to its start; that alone is zero for
+// a straight path, which would read as perfect. The uncut path therefore also counts
+// with the strip the band allows on both sides: per plane, the loop's ∫|w| plus
+// 2 · band · (length of the drawn path's pieces projected on the plane). A cut that
+// stays within the band everywhere deviates less than this in every plane.
+Deviation deviationWithoutCut(const Polyline& drawn, double band);
+
 // The thesis's method (6.2.1): triangles stitched between the two point lists in the
 // way groove triangles are made, split at crossings, unsigned areas summed. Kept for
 // comparison only: it depends on how the paths are sampled.

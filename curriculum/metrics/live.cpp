@@ -9,19 +9,24 @@ namespace ld::curriculum {
 namespace {
 
 constexpr std::size_t kWindow = 32;  // drawn segments searched ahead for the progress point
-constexpr double kCell = 2.0;        // mm, grid cell for polygon lookup
-constexpr std::int64_t kMaxCells = 1024;
 
-std::int64_t cellOf(double x) { return static_cast<std::int64_t>(std::floor(std::clamp(x / kCell, -1e9, 1e9))); }
 std::int64_t key(std::int64_t cx, std::int64_t cy) {
   return static_cast<std::int64_t>((static_cast<std::uint64_t>(cx + (1LL << 31)) << 32) ^
                                    static_cast<std::uint64_t>(cy + (1LL << 31)));
 }
 
+// Mean of max(u, 0) for u running linearly from u0 to u1.
+double meanPositive(double u0, double u1) {
+  if (u0 >= 0.0 && u1 >= 0.0) return 0.5 * (u0 + u1);
+  if (u0 <= 0.0 && u1 <= 0.0) return 0.0;
+  const double m = std::max(u0, u1);
+  return m * m / (2.0 * std::abs(u1 - u0));
+}
+
 }  // namespace
 
-LiveDeviation::LiveDeviation(const Polyline& drawn, std::size_t maxOverlap)
-    : d_(joinedPoints(drawn)), maxOverlap_(maxOverlap) {}
+LiveDeviation::LiveDeviation(const Polyline& drawn, double cellMm, std::size_t maxCells)
+    : d_(joinedPoints(drawn)), h_(cellMm > 0.0 ? cellMm : kCellMm), maxCells_(maxCells) {}
 
 Eigen::Vector3d LiveDeviation::drawnPoint(std::size_t seg, double u) const {
   if (d_.size() < 2) return d_.empty() ? Eigen::Vector3d::Zero() : d_[0];
@@ -101,62 +106,70 @@ void LiveDeviation::addPolygon(const std::vector<Eigen::Vector3d>& poly) {
   }
 }
 
-double LiveDeviation::addToPlane(PlaneAcc& acc, const std::vector<Eigen::Vector2d>& loop) {
-  std::vector<Segment2> segs;
-  appendLoop(loop, segs);
-  Eigen::Vector4d box(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                      -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity());
+double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d>& loop) {
+  const std::size_t n = loop.size();
+  if (n < 3) return 0.0;
+  Eigen::Vector2d lo = loop[0], hi = loop[0];
   for (const auto& q : loop) {
-    box[0] = std::min(box[0], q.x());
-    box[1] = std::min(box[1], q.y());
-    box[2] = std::max(box[2], q.x());
-    box[3] = std::max(box[3], q.y());
+    if (!q.allFinite()) return 0.0;
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
   }
-  if (!box.allFinite()) return 0.0;
-  // A polygon enclosing no area has w = 0 almost everywhere: it changes nothing.
-  const double diag2 = (box[2] - box[0]) * (box[2] - box[0]) + (box[3] - box[1]) * (box[3] - box[1]);
-  if (absWindingArea(segs) <= 1e-14 * (1.0 + diag2)) return 0.0;
-
-  const std::int64_t cx0 = cellOf(box[0]), cy0 = cellOf(box[1]), cx1 = cellOf(box[2]), cy1 = cellOf(box[3]);
-  const bool isBig = (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > kMaxCells;
-  std::vector<std::uint32_t> cand = acc.big;
-  if (isBig) {
-    for (std::uint32_t i = 0; i < acc.polys.size(); ++i) cand.push_back(i);
-  } else {
-    for (std::int64_t cx = cx0; cx <= cx1; ++cx)
-      for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
-        auto it = acc.grid.find(key(cx, cy));
-        if (it != acc.grid.end()) cand.insert(cand.end(), it->second.begin(), it->second.end());
-      }
-  }
-  std::sort(cand.begin(), cand.end());
-  cand.erase(std::unique(cand.begin(), cand.end()), cand.end());
-  cand.erase(std::remove_if(cand.begin(), cand.end(),
-                            [&](std::uint32_t i) {
-                              const Eigen::Vector4d& b = acc.boxes[i];
-                              return b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1];
-                            }),
-             cand.end());
-  if (cand.size() > maxOverlap_) {
-    cand.erase(cand.begin(), cand.end() - static_cast<std::ptrdiff_t>(maxOverlap_));
+  const auto cell = [&](double v) { return static_cast<std::int64_t>(std::floor(v / h_)); };
+  const std::int64_t i0 = cell(lo.x()), i1 = cell(hi.x()), j0 = cell(lo.y()), j1 = cell(hi.y());
+  const std::int64_t nc = i1 - i0 + 1, nr = j1 - j0 + 1;
+  if (static_cast<double>(nc) * static_cast<double>(nr) > static_cast<double>(maxCells_)) {
+    // Too large for the grid: its |signed area| (exact when Q is simple and alone).
     exact_ = false;
+    double a2 = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto& p = loop[k];
+      const auto& q = loop[(k + 1) % n];
+      a2 += p.x() * q.y() - q.x() * p.y();
+    }
+    return 0.5 * std::abs(a2);
   }
-  std::vector<Segment2> local;
-  for (std::uint32_t i : cand) local.insert(local.end(), acc.polys[i].begin(), acc.polys[i].end());
-  const double before = local.empty() ? 0.0 : absWindingArea(local);
-  local.insert(local.end(), segs.begin(), segs.end());
-  const double after = absWindingArea(local);
-
-  const auto id = static_cast<std::uint32_t>(acc.polys.size());
-  acc.polys.push_back(std::move(segs));
-  acc.boxes.push_back(box);
-  if (isBig) {
-    acc.big.push_back(id);
-  } else {
-    for (std::int64_t cx = cx0; cx <= cx1; ++cx)
-      for (std::int64_t cy = cy0; cy <= cy1; ++cy) acc.grid[key(cx, cy)].push_back(id);
+  // Signed integral of w over cell (i, j) = -sum over edges of the integral, along x,
+  // of clamp(y - y_j, 0, h): the area of the polygon within the row y_j..y_j+h, by
+  // the trapezoid rule made exact for straight edges. Rows below the polygon receive
+  // h * dx from every edge, which cancels over the closed loop: only the bounding
+  // box's rows are visited.
+  std::vector<double>& acc = g.scratch;
+  acc.assign(static_cast<std::size_t>(nc * nr), 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d& p = loop[k];
+    const Eigen::Vector2d& q = loop[(k + 1) % n];
+    if (p.x() == q.x()) continue;
+    const double xl = std::min(p.x(), q.x()), xr = std::max(p.x(), q.x());
+    const double sign = q.x() > p.x() ? 1.0 : -1.0;
+    const double slope = (q.y() - p.y()) / (q.x() - p.x());
+    const auto yAt = [&](double x) { return p.y() + slope * (x - p.x()); };
+    for (std::int64_t i = cell(xl); i <= cell(xr) && i <= i1; ++i) {
+      const double xa = std::max(xl, static_cast<double>(i) * h_), xb = std::min(xr, static_cast<double>(i + 1) * h_);
+      if (!(xb > xa)) continue;
+      const double dx = sign * (xb - xa);
+      const double ya = yAt(xa), yb = yAt(xb);
+      const double ymin = std::min(ya, yb), ymax = std::max(ya, yb);
+      double* col = &acc[static_cast<std::size_t>((i - i0) * nr)];
+      for (std::int64_t j = j0; j <= j1; ++j) {
+        const double yj = static_cast<double>(j) * h_;
+        if (yj >= ymax) break;  // rows above the edge piece get nothing
+        const double f =
+            yj + h_ <= ymin ? h_ : meanPositive(ya - yj, yb - yj) - meanPositive(ya - yj - h_, yb - yj - h_);
+        col[j - j0] -= dx * f;
+      }
+    }
   }
-  return after - before;
+  double change = 0.0;
+  for (std::int64_t i = 0; i < nc; ++i)
+    for (std::int64_t j = 0; j < nr; ++j) {
+      const double dv = acc[static_cast<std::size_t>(i * nr + j)];
+      if (dv == 0.0) continue;
+      double& c = g.cells[key(i0 + i, j0 + j)];
+      change += std::abs(c + dv) - std::abs(c);
+      c += dv;
+    }
+  return change;
 }
 
 // ---------------------------------------------------------------------------
@@ -295,6 +308,9 @@ Metrics LiveMetrics::finish(double tEnd) {
   if (!cut_.empty()) {
     m.deviation = deviation(drawn_, cut_);
     m.deviationThesis = deviationThesis(drawn_, cut_);
+  } else {
+    m.deviation = m.deviationThesis = deviationWithoutCut(drawn_, s_.band);
+    m.noCut = true;
   }
   series_.push_back({tNow_, m});
   lastSeries_ = tNow_;

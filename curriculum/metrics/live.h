@@ -6,10 +6,14 @@
 // progress point P (the nearest point of the drawn path to the cut's end, searched
 // forward in a short window, never moving back). Each new cut point changes the loop
 // of DESIGN.md by one small closed polygon Q (P_old, drawn points up to P_new, the new
-// cut point, the old one), so the winding number changes by w_Q only on Q's support.
-// The change of ∫|w| is then ∫|W + w_Q| − ∫|W| evaluated over the earlier polygons
-// whose bounding boxes meet Q's: exact, and local. finish() adds the polygon that
-// closes the loop from P to the drawn path's end, which yields the batch value.
+// cut point, the old one), so the winding number field changes by w_Q only on Q's
+// support. Each plane keeps the field on a grid of square cells (kCellMm) as the exact
+// signed integral of w per cell (Q's share of each cell comes from its edges in closed
+// form); the live value is the sum of |cell integral|, updated for the cells Q covers.
+// The cost per cut point depends on Q's size only, never on the attempt's length. The
+// value is exact where w keeps one sign inside a cell; cells where the cut crosses the
+// drawn path (both signs inside) under-count a little. finish() closes the loop; the
+// batch value (deviation()) is what LiveMetrics reports at the end.
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -23,9 +27,10 @@ namespace ld::curriculum {
 
 class LiveDeviation {
  public:
-  // maxOverlap bounds the work per point where a projection folds many polygons onto
-  // one place (then the live value is approximate until finish()).
-  explicit LiveDeviation(const Polyline& drawn, std::size_t maxOverlap = 64);
+  static constexpr double kCellMm = 0.25;
+  // A polygon covering more cells than maxCells (a jump of many centimetres) is
+  // counted by its |signed area| instead (then exact() is false).
+  explicit LiveDeviation(const Polyline& drawn, double cellMm = kCellMm, std::size_t maxCells = 1u << 18);
   void addCutPoint(const Eigen::Vector3d& p);
   // Closes the loop at the drawn path's end: the value then equals deviation().
   void finish();
@@ -35,24 +40,23 @@ class LiveDeviation {
   [[nodiscard]] const Eigen::Vector3d& progressPoint() const { return p_; }
 
  private:
-  struct PlaneAcc {
-    std::vector<std::vector<Segment2>> polys;
-    std::vector<Eigen::Vector4d> boxes;  // min x, min y, max x, max y
-    std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
-    std::vector<std::uint32_t> big;
+  struct PlaneGrid {
+    std::unordered_map<std::int64_t, double> cells;  // signed integral of w per cell
+    std::vector<double> scratch;
   };
   void addPolygon(const std::vector<Eigen::Vector3d>& poly);
-  double addToPlane(PlaneAcc& acc, const std::vector<Eigen::Vector2d>& loop);
+  double addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d>& loop);
   Eigen::Vector3d closestAhead(const Eigen::Vector3d& p, std::size_t& seg, double& u) const;
   Eigen::Vector3d drawnPoint(std::size_t seg, double u) const;
 
   std::vector<Eigen::Vector3d> d_;
-  std::size_t maxOverlap_;
+  double h_;
+  std::size_t maxCells_;
   std::size_t seg_ = 0;
   double u_ = 0.0;
   bool started_ = false, finished_ = false, exact_ = true;
   Eigen::Vector3d lastCut_ = Eigen::Vector3d::Zero(), p_ = Eigen::Vector3d::Zero();
-  PlaneAcc planes_[3];
+  PlaneGrid planes_[3];
   Deviation value_;
 };
 

@@ -242,6 +242,9 @@ Metrics computeMetrics(const Polyline& drawn, const AttemptEvents& ev, const Met
   if (!ev.cut.empty()) {
     m.deviation = deviation(drawn, ev.cut);
     m.deviationThesis = deviationThesis(drawn, ev.cut);
+  } else {
+    m.deviation = m.deviationThesis = deviationWithoutCut(drawn, s.band);
+    m.noCut = true;
   }
   m.contact = contactTime(ev.contacts, s.contactRadius, ev.endTime);
   m.contactBreaks = contactBreaks(ev.contacts);

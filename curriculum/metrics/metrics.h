@@ -57,6 +57,7 @@ struct ContactTime {
 struct Metrics {
   Deviation deviation;
   Deviation deviationThesis;
+  bool noCut = false;  // nothing was cut: deviation is deviationWithoutCut()
   ContactTime contact;
   int contactBreaks = 0;
   int pathBreaks = 0;

@@ -42,24 +42,47 @@ void BM_DeviationBatch(benchmark::State& state) {
 }
 BENCHMARK(BM_DeviationBatch)->RangeMultiplier(4)->Range(64, 4096)->Complexity();
 
-// One more cut point after `prior` points: the live cost must not grow with prior.
+// One more cut point after `prior` points: the live cost must not grow with prior
+// (the drawn path is the same for every prior: a task's path does not grow with
+// the attempt; the cut goes along it at 0.25 mm steps, then back and forth over its
+// last 20 mm, as a slow trainee working one place would).
+struct LiveFixture {
+  static constexpr double kLength = 100.0;
+  Polyline d = drawnLine(50, kLength);
+  std::mt19937 rng{2};
+  int k = 0;
+  V next() {
+    const double step = 0.25, pass = kLength / step;
+    double x = step * k;
+    if (k >= pass) {  // triangle wave over [80, 100]
+      const double u = std::fmod(step * (k - pass), 40.0);
+      x = u < 20.0 ? kLength - u : kLength - 40.0 + u;
+    }
+    ++k;
+    return cutPoint(x, rng);
+  }
+};
+
+void BM_LiveDeviationPerPoint(benchmark::State& state) {
+  const int prior = static_cast<int>(state.range(0));
+  LiveFixture f;
+  LiveDeviation live(f.d);
+  for (int i = 0; i < prior; ++i) live.addCutPoint(f.next());
+  for (auto _ : state) live.addCutPoint(f.next());
+  state.counters["prior"] = prior;
+}
+BENCHMARK(BM_LiveDeviationPerPoint)->Arg(100)->Arg(1000)->Arg(10000)->Iterations(2000)->Unit(benchmark::kMicrosecond);
+
 void BM_LiveMetricsPerPoint(benchmark::State& state) {
   const int prior = static_cast<int>(state.range(0));
-  const double step = 0.25;  // mm between cut points
-  const double length = step * (prior + 2000);
-  const Polyline d = drawnLine(static_cast<int>(length / 2), length);
-  std::mt19937 rng(2);
-  LiveMetrics live(d);
+  LiveFixture f;
+  LiveMetrics live(f.d);
   live.start(0);
-  int k = 0;
-  for (; k < prior; ++k) live.addCutPoint(k * 1e-3, cutPoint(k * step, rng));
-  for (auto _ : state) {
-    live.addCutPoint(k * 1e-3, cutPoint(k * step, rng));
-    ++k;
-    if (k >= prior + 1990) state.SkipWithError("ran past the prepared path");
-  }
+  for (int i = 0; i < prior; ++i) live.addCutPoint(f.k * 1e-3, f.next());
+  for (auto _ : state) live.addCutPoint(f.k * 1e-3, f.next());
+  state.counters["prior"] = prior;
 }
-BENCHMARK(BM_LiveMetricsPerPoint)->Arg(100)->Arg(1000)->Arg(4000)->Iterations(500);
+BENCHMARK(BM_LiveMetricsPerPoint)->Arg(100)->Arg(1000)->Arg(10000)->Iterations(2000)->Unit(benchmark::kMicrosecond);
 
 void BM_HeadlessRun(benchmark::State& state) {
   const std::string file = std::string(LD_RESOURCES_DIR) + "/tasks/slab-s-curve.json";

@@ -1,0 +1,175 @@
+// The headless task runner drives the real cutting engine: the cut path comes from
+// the engine's cut points, the drawn path is broken where the cut crosses it and
+// re-embedded (from the mesh's edit journal) without moving where its triangles are
+// subdivided; an attempt that cuts nothing is not scored as perfect.
+#include "curriculum/task_runner.h"
+
+#include "curriculum/tissue_path.h"
+#include "tests/support/test_support.h"
+
+namespace ld::curriculum {
+namespace {
+
+using V = Eigen::Vector3d;
+using instruments::Hand;
+using instruments::Tool;
+
+// n x n squares of 1 mm on z = 0 (an open sheet: the engine cuts it through).
+mesh::SurfaceMesh sheet(int n) {
+  mesh::SurfaceMesh m;
+  std::vector<mesh::Vertex> v;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) v.push_back(m.addVertex(V(i, j, 0)));
+  auto id = [&](int i, int j) { return v[static_cast<std::size_t>(j * (n + 1) + i)]; };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.addFace(id(i, j), id(i + 1, j), id(i + 1, j + 1));
+      m.addFace(id(i, j), id(i + 1, j + 1), id(i, j + 1));
+    }
+  return m;
+}
+
+// A straight drawn path along x at y = 3 (on grid edges and through grid vertices).
+Task lineTask() {
+  Task t;
+  t.id = "test-line";
+  t.leftTool = "none";
+  t.rightTool = "scalpel";
+  std::vector<V> pts;
+  for (int k = 0; k <= 10; ++k) pts.emplace_back(0.5 + 0.5 * k, 3.0, 0.0);
+  t.path = makePolyline(pts);
+  t.scoring.timeLimitS = 60;
+  t.scoring.weights.uncutFraction = 30;
+  t.proficiency.minBandFraction = 0.5;
+  return t;
+}
+
+// A scalpel stroke across the sheet at x = xCut from y0 to y1 (blade through the
+// sheet, sharp side toward +y), then lifted clear.
+devices::Trajectory stroke(double xCut, double y0, double y1, double z, double hz) {
+  devices::Trajectory tr;
+  const double dur = 1.0;
+  const int n = static_cast<int>(dur * hz);
+  for (int i = 0; i <= n + 2; ++i) {
+    devices::PoseSample s;
+    s.t = static_cast<double>(i) / hz;
+    s.hand = Hand::Right;
+    s.tool = Tool::Scalpel;
+    const double u = std::min(1.0, s.t / dur);
+    s.pose.tip = V(xCut, y0 + u * (y1 - y0), i > n ? z + 30.0 : z);
+    s.pose.dir = V(0, 0, -1);  // the edge runs from the tip up through the sheet
+    s.pose.up = V(0, 1, 0);
+    tr.samples.push_back(s);
+  }
+  return tr;
+}
+
+TEST(TaskRunner, CutsThroughTheEngineBreaksAndKeepsTheDrawnPath) {
+  const Task task = lineTask();
+  const mesh::SurfaceMesh m = sheet(6);
+  const RunResult r = runTask(task, m, stroke(2.75, 1.0, 5.0, -1.0, 100));
+  // The engine cut the tissue.
+  EXPECT_GT(r.cutStats.trianglesCut, 0);
+  EXPECT_EQ(r.cutStats.fillFailures, 0);
+  // The cut path: straight pieces along x = 2.75, ending with a stop.
+  ASSERT_GE(r.cut.size(), 2u);
+  for (const auto& q : r.cut) EXPECT_TRUE(test::near(q.p.x(), 2.75, 1e-6)) << q.p.transpose();
+  EXPECT_TRUE(r.cut.back().stop);
+  EXPECT_LT(r.cut.front().p.y(), 1.1);
+  EXPECT_GT(r.cut.back().p.y(), 4.9);
+  // One crossing: the drawn path is broken after its point at x = 2.5.
+  EXPECT_EQ(r.metrics.pathBreaks, 1);
+  ASSERT_EQ(r.drawn.size(), task.path.size());
+  EXPECT_EQ(pieces(r.drawn).size(), 2u);
+  EXPECT_TRUE(r.drawn[4].stop);
+  EXPECT_EQ(pieces(r.drawnAsDrawn).size(), 1u);
+  // Points whose triangles were subdivided were embedded again, none moved, and no
+  // search of the whole mesh was needed.
+  EXPECT_GT(r.pathReembedded, 0u);
+  EXPECT_EQ(r.pathGlobalSearches, 0u);
+  for (std::size_t i = 0; i < r.drawn.size(); ++i) EXPECT_TRUE(test::nearVec(r.drawn[i].p, task.path[i].p, 1e-9)) << i;
+  // One contact interval; a cut that crosses the line has little deviation in xy
+  // (two triangles of legs 2.25 x 2 and 2.75 x 2 ... bounded by the crossing lobes).
+  EXPECT_EQ(r.metrics.contactBreaks, 0);
+  EXPECT_FALSE(r.metrics.noCut);
+}
+
+TEST(TaskRunner, EmbeddedPathFollowsEditsOnlyWhereFacesChanged) {
+  // Directly on the engine: after cutting across, every path point is where it was
+  // and the path has a stop where the cut crossed.
+  mesh::SurfaceMesh m = sheet(6);
+  cutting::CutEngine engine;
+  const int obj = engine.addObject(std::move(m));
+  const Task task = lineTask();
+  TissuePath tp = TissuePath::embed(engine.object(obj).mesh, task.path);
+  const auto before = tp.worldPoints(engine.object(obj).mesh);
+  std::optional<V> last;
+  std::size_t moved = 0;
+  for (const auto& s : stroke(2.25, 5.5, 0.5, -1.0, 200).samples) {
+    instruments::Pose p = s.pose;
+    p.up = V(0, -1, 0);  // cutting toward -y
+    const auto res = engine.step(s.hand, s.tool, p);
+    moved += tp.followEdits(engine.object(obj).mesh);
+    if (!res.cutPoints.empty()) {
+      const V q = res.cutPoints.front().point;
+      if (last) tp.cutAcross(engine.object(obj).mesh, *last, q, V(0, 0, 1));
+      last = q;
+    } else {
+      last.reset();
+    }
+  }
+  engine.finish();
+  moved += tp.followEdits(engine.object(obj).mesh);
+  const mesh::SurfaceMesh& cut = engine.object(obj).mesh;
+  ASSERT_TRUE(cut.validate().ok()) << cut.validate().message();
+  EXPECT_GT(moved, 0u);
+  EXPECT_LT(moved, 4 * task.path.size());  // only the points near the cut, a few times
+  EXPECT_EQ(tp.globalSearches(), 0u);
+  const auto after = tp.worldPoints(cut);
+  for (std::size_t i = 0; i < after.size(); ++i) {
+    EXPECT_TRUE(test::nearVec(after[i], before[i], 1e-9)) << i;
+    EXPECT_GE(tp.points()[i].loc.bary.minCoeff(), -1e-9);
+  }
+  const Polyline now = tp.positions(cut);
+  EXPECT_EQ(pieces(now).size(), 2u);
+  EXPECT_TRUE(now[3].stop);  // x = 2.0 | cut at 2.25 | x = 2.5
+  // And the path still moves with the tissue.
+  for (mesh::Vertex v : engine.object(obj).mesh.vertices()) engine.object(obj).mesh.position(v).z() += 1.0;
+  for (const auto& q : tp.positions(engine.object(obj).mesh)) EXPECT_TRUE(test::near(q.p.z(), 1.0, 1e-12));
+}
+
+TEST(TaskRunner, NothingCutIsNotPerfect) {
+  const Task task = lineTask();
+  const mesh::SurfaceMesh m = sheet(6);
+  const RunResult none = runTask(task, m, stroke(2.75, 1.0, 5.0, 10.0, 100));  // far above the tissue
+  EXPECT_TRUE(none.cut.empty());
+  EXPECT_TRUE(none.metrics.noCut);
+  // The straight 5 mm path: its chord adds nothing; the band strip (2 x 2 mm wide)
+  // counts in xy and xz, nothing in yz (the path projects to a point there).
+  EXPECT_TRUE(test::near(none.metrics.deviation.xy, 20.0, 1e-9));
+  EXPECT_TRUE(test::near(none.metrics.deviation.xz, 20.0, 1e-9));
+  EXPECT_TRUE(test::near(none.metrics.deviation.yz, 0.0, 1e-9));
+  EXPECT_EQ(none.metrics.bandFraction, 0.0);
+  EXPECT_FALSE(none.assessment.passed);
+  // A cut along the line (within the band) deviates less and scores better.
+  devices::Trajectory along;
+  for (int i = 0; i <= 102; ++i) {
+    devices::PoseSample s;
+    s.t = i / 100.0;
+    s.tool = Tool::Scalpel;
+    const double u = std::min(1.0, s.t);
+    s.pose.tip = V(0.5 + 5.0 * u, 3.2, i > 100 ? 30.0 : -1.0);
+    s.pose.dir = V(0, 0, -1);
+    s.pose.up = V(1, 0, 0);
+    along.samples.push_back(s);
+  }
+  const RunResult good = runTask(task, m, along);
+  EXPECT_FALSE(good.metrics.noCut);
+  EXPECT_GT(good.metrics.bandFraction, 0.9);
+  EXPECT_LT(good.metrics.deviation.total(), none.metrics.deviation.total());
+  EXPECT_GT(good.assessment.score, none.assessment.score);
+  EXPECT_TRUE(good.assessment.passed);
+}
+
+}  // namespace
+}  // namespace ld::curriculum
