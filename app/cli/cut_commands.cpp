@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -51,33 +52,29 @@ int cut(const Args& args) {
   cutting::CutEngine engine(params);
   engine.addObject(std::move(m));
 
-  // Physics (--physics on): one state per object, synchronised with the cutter's
-  // mesh around every step (the cutter owns the topology, physics the motion).
+  // Physics (--physics on): one Dynamics per object, stepping the engine's own mesh in
+  // place (the cutter owns the topology, physics moves the vertices; object() tells the
+  // engine to refit its collision tree before the next sample).
   physics::Params pp;
-  std::vector<physics::State> states;
-  std::vector<int> stateOf;
+  std::vector<std::unique_ptr<physics::Dynamics>> dynamics;  // stable addresses
+  std::vector<int> dynamicsOf;
   double physicsSeconds = 0.0;
   long physicsSteps = 0;
   auto stepPhysics = [&](double dt) {
     if (!physicsOn || !(dt > 0.0)) return;
-    const auto& objs = engine.objects();
-    for (std::size_t i = 0; i < objs.size(); ++i) {
-      const int id = objs[i].id;
+    const std::size_t n = engine.objects().size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const int id = engine.objects()[i].id;
       std::size_t k = 0;
-      while (k < stateOf.size() && stateOf[k] != id) ++k;
-      if (k == stateOf.size()) {
-        states.push_back(physics::makeState(objs[i].mesh, tissue));
-        stateOf.push_back(id);
-      } else if (states[k].mesh.topologyVersion() != objs[i].mesh.topologyVersion() ||
-                 states[k].mesh.verticesSize() != objs[i].mesh.verticesSize()) {
-        states[k].mesh = objs[i].mesh;
-        states[k].invalidate();
+      while (k < dynamicsOf.size() && dynamicsOf[k] != id) ++k;
+      if (k == dynamicsOf.size()) {
+        dynamics.push_back(std::make_unique<physics::Dynamics>());
+        dynamicsOf.push_back(id);
       }
       const auto t0 = std::chrono::steady_clock::now();
-      physics::step(pp, states[k], dt);
+      physics::step(pp, *dynamics[k], engine.object(id).mesh, dt);
       physicsSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       ++physicsSteps;
-      engine.object(id).mesh.positions() = states[k].mesh.positions();
     }
   };
 

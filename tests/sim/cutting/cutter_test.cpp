@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "sim/cutting/mesh_checks.h"
+#include "sim/physics/mass_spring.h"
+#include "sim/physics/tissue_properties.h"
 #include "tests/sim/cutting/cut_test_meshes.h"
 #include "tests/support/test_support.h"
 
@@ -300,6 +302,57 @@ TEST(Cutter, HookCutsOnlyWithThePedalDown) {
   }
   e.finish();
   EXPECT_GT(e.objects()[0].mesh.nFaces(), f0);
+}
+
+// Largest distance between two vertices that share a home position: the copies made
+// when the cut opened start at the same place and drift apart as the tissue opens.
+double widestOpening(const mesh::SurfaceMesh& m) {
+  const auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+  std::map<std::tuple<long, long, long>, std::vector<mesh::Vertex>> byHome;
+  for (auto v : m.vertices()) {
+    const Vec3 h = home[v] * 1e6;
+    byHome[{std::lround(h.x()), std::lround(h.y()), std::lround(h.z())}].push_back(v);
+  }
+  double gap = 0.0;
+  for (const auto& [key, vs] : byHome)
+    for (std::size_t i = 0; i < vs.size(); ++i)
+      for (std::size_t j = i + 1; j < vs.size(); ++j)
+        gap = std::max(gap, (m.position(vs[i]) - m.position(vs[j])).norm());
+  return gap;
+}
+
+// A pre-stretched slab (rest = 0.7 x length) cut through in its middle: physics stepping
+// the engine's own mesh in place pulls the two sides of the cut apart.
+TEST(CutterPhysics, PreStretchedSlabOpensAlongACut) {
+  physics::TissueParams tissue;
+  CutParams params;
+  params.tissue = tissue;
+  mesh::SurfaceMesh m = test::makeBox(Vec3(0, 0, 0), Vec3(20, 20, 2), {16, 16, 2});
+  physics::attachTissueProperties(m, tissue);
+  CutEngine e(params);
+  const int id = e.addObject(std::move(m));
+  physics::Params pp;
+  physics::Dynamics dyn;
+  for (int i = 0; i < 20; ++i) physics::step(pp, dyn, e.object(id).mesh, 1e-3);  // settle first
+  test::stroke(e, Vec3(5, 10.3, -1), Vec3(15, 10.3, -1), Vec3(0, 0, -1), 50.0, 1000.0);
+  ASSERT_EQ(e.objects().size(), 1u) << "a cut inside the slab frees nothing";
+  ASSERT_GT(e.stats().trianglesCut, 10);
+  const double before = widestOpening(e.objects()[0].mesh);
+  EXPECT_LT(before, 1e-9) << "the copies start where the originals are";
+  for (int i = 0; i < 300; ++i) physics::step(pp, dyn, e.object(id).mesh, 1e-3);
+  const auto& cut = e.objects()[0].mesh;
+  EXPECT_TRUE(cut.validate().ok());
+  EXPECT_TRUE(measureQuality(cut).finite);
+  const double after = widestOpening(cut);
+  EXPECT_GT(after, 0.1) << "the cut should gape (mm)";
+  // More steps open it further or keep it open (the home springs bound it).
+  for (int i = 0; i < 300; ++i) physics::step(pp, dyn, e.object(id).mesh, 1e-3);
+  EXPECT_GT(widestOpening(cut), 0.5 * after);
+  // The engine still cuts the moved mesh (its collision tree was refitted).
+  const long cutBefore = e.stats().trianglesCut;
+  test::stroke(e, Vec3(10.2, 4, -1), Vec3(10.2, 8, -1), Vec3(0, 0, -1), 50.0, 1000.0);
+  EXPECT_GT(e.stats().trianglesCut, cutBefore);
+  EXPECT_TRUE(e.objects()[0].mesh.validate().ok());
 }
 
 TEST(Cutter, RejectsBadInput) {
