@@ -6,7 +6,7 @@
 // With --physics the screenshot is taken after the tissue has settled and run for
 // --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z,
 // the scalpel strokes across the top along each --cut polyline, DEPTH mm deep, in
-// order, and the pieces they cut free moved by --drag-piece);
+// order, and the pieces the last freeing stroke cut free moved by --drag-piece);
 // a JSON line with the simulation's figures goes to stdout.
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
       QStringLiteral("X0,Y0,X1,Y1[,...]:DEPTH"));
   const QCommandLineOption dragOpt(
       QStringLiteral("drag-piece"),
-      QStringLiteral("With --cut: grasp the pieces the strokes cut free and move them by DX,DY,DZ mm."),
+      QStringLiteral("With --cut: grasp the piece(s) the last freeing stroke cut free and move them by DX,DY,DZ mm."),
       QStringLiteral("DX,DY,DZ"));
   const QCommandLineOption orbitOpt(
       QStringLiteral("orbit"), QStringLiteral("With --screenshot: camera yaw and pitch in degrees (default -90,50)."),
@@ -324,7 +324,7 @@ int main(int argc, char** argv) {
         if (!strokes.empty()) {
           window.syncPhysics();  // the cuts are made: the pieces exist
           cutObjects = window.objectCount();
-          if (drag) window.dragPieces(*drag);
+          if (drag) window.dragPieces(*drag, true);
           if (parser.isSet(scalpelOpt)) {
             const Stroke& last = strokes.back();
             const QPointF a = last.points[last.points.size() - 2], b = last.points.back();
@@ -342,6 +342,10 @@ int main(int argc, char** argv) {
       if (session->simTime() < startTime + simTime) return;
       poll.stop();
       window.pollPhysics();
+      if (drag) {  // frame the moved pieces too
+        window.view()->fitToView();
+        window.view()->camera().zoom(static_cast<float>(zoom));
+      }
       const ld::gui::RenderMesh& shown = window.view()->mesh();
       const ld::gui::Bounds b = shown.bounds();
       std::size_t wallTriangles = 0, vertices = 0, triangles = 0;

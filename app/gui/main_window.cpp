@@ -169,11 +169,16 @@ bool MainWindow::cutStroke(const std::vector<QPointF>& xy, double depth) {
 #endif
 }
 
-void MainWindow::dragPieces(const QVector3D& delta) {
+void MainWindow::dragPieces(const QVector3D& delta, bool lastStrokeOnly) {
 #ifdef LD_GUI_HAVE_PHYSICS
-  if (physics_) physics_->moveAllPieces(Eigen::Vector3d(delta.x(), delta.y(), delta.z()));
+  if (!physics_) return;
+  const Eigen::Vector3d d(delta.x(), delta.y(), delta.z());
+  if (lastStrokeOnly)
+    physics_->moveLastFreedPieces(d);
+  else
+    physics_->moveAllPieces(d);
 #else
-  (void)delta;
+  (void)delta, (void)lastStrokeOnly;
 #endif
 }
 

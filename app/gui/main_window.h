@@ -64,8 +64,9 @@ class MainWindow : public QMainWindow {
   // A scalpel stroke along a polyline (x, y pairs) across the top, `depth` mm deep.
   // Returns false without the cutting module.
   bool cutStroke(const std::vector<QPointF>& xy, double depth);
-  // Moves every piece cut free so far by `delta` mm (as a grasp would).
-  void dragPieces(const QVector3D& delta);
+  // Moves every piece cut free so far by `delta` mm (as a grasp would), or only
+  // those the last stroke that freed any freed.
+  void dragPieces(const QVector3D& delta, bool lastStrokeOnly = false);
   // Blocks until the simulation has run every command sent so far.
   void syncPhysics();
   // The objects as last shown: index 0 the tissue, then the pieces cut free.

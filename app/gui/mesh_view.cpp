@@ -58,8 +58,8 @@ RenderMesh scalpelMesh(const ScalpelPose& pose, int* bladeTriangles) {
   addPrism(m, {tip, top, top - 5.0F * u, tip - 4.0F * u - 3.0F * d}, 0.15F * s);
   if (bladeTriangles) *bladeTriangles = static_cast<int>(m.triangles.size());
   // Handle: a bar continuing the blade away from the tissue.
-  const QVector3D h0 = top - 0.5F * u, h1 = top - 4.5F * u;
-  addPrism(m, {h0, h0 - 45.0F * d, h1 - 45.0F * d, h1}, 1.0F * s);
+  const QVector3D h0 = top - 1.0F * u, h1 = top - 4.0F * u;
+  addPrism(m, {h0, h0 - 40.0F * d, h1 - 40.0F * d, h1}, 0.6F * s);
   m.faceKind.assign(m.triangles.size(), 0);
   return m;
 }

@@ -82,7 +82,7 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   static constexpr float kTissueColor[3] = {0.86F, 0.42F, 0.40F};
   static constexpr float kInteriorColor[3] = {0.72F, 0.14F, 0.22F};
   static constexpr float kBladeColor[3] = {0.78F, 0.80F, 0.84F};
-  static constexpr float kHandleColor[3] = {0.16F, 0.30F, 0.42F};
+  static constexpr float kHandleColor[3] = {0.30F, 0.45F, 0.60F};
 
  public slots:
   void setWireframe(bool on);

@@ -48,10 +48,10 @@ PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh, Options options) : params
   cp.tissue = params_.tissue;
   engine_ = std::make_unique<cutting::CutEngine>(cp);
   const int id = engine_->addObject(std::move(mesh));
-  bodies_.push_back(Body{id, {}});
+  bodies_.push_back(Body{id, {}, 0});
 #else
   plain_ = std::make_unique<mesh::SurfaceMesh>(std::move(mesh));
-  bodies_.push_back(Body{0, {}});
+  bodies_.push_back(Body{0, {}, 0});
 #endif
   publish();
   thread_ = std::thread([this] { run(); });
@@ -309,26 +309,32 @@ void PhysicsSession::forceAt(const Eigen::Vector3d& point, const Eigen::Vector3d
   });
 }
 
+void PhysicsSession::moveHomes(Body& b, const Eigen::Vector3d& delta) {
+  mesh::SurfaceMesh& m = meshOf(b.id);
+  auto home = m.vertexProperty<Eigen::Vector3d>(physics::kHomeProp, Eigen::Vector3d::Zero());
+  for (auto v : m.vertices()) home[v] += delta;
+  b.dynamics.invalidate();  // the home energy jumps: a new budget, not a divergence
+}
+
 void PhysicsSession::movePiece(int object, const Eigen::Vector3d& delta) {
   post([this, object, delta] {
-    for (auto& b : bodies_) {
-      if (b.id != object || b.id == bodies_[0].id) continue;
-      mesh::SurfaceMesh& m = meshOf(b.id);
-      auto home = m.vertexProperty<Eigen::Vector3d>(physics::kHomeProp, Eigen::Vector3d::Zero());
-      for (auto v : m.vertices()) home[v] += delta;
-      b.dynamics.invalidate();  // the home energy jumps: a new budget, not a divergence
-    }
+    for (std::size_t i = 1; i < bodies_.size(); ++i)  // bodies_[0], the tissue, is held
+      if (bodies_[i].id == object) moveHomes(bodies_[i], delta);
   });
 }
 
 void PhysicsSession::moveAllPieces(const Eigen::Vector3d& delta) {
   post([this, delta] {
-    for (std::size_t i = 1; i < bodies_.size(); ++i) {
-      mesh::SurfaceMesh& m = meshOf(bodies_[i].id);
-      auto home = m.vertexProperty<Eigen::Vector3d>(physics::kHomeProp, Eigen::Vector3d::Zero());
-      for (auto v : m.vertices()) home[v] += delta;
-      bodies_[i].dynamics.invalidate();
-    }
+    for (std::size_t i = 1; i < bodies_.size(); ++i) moveHomes(bodies_[i], delta);
+  });
+}
+
+void PhysicsSession::moveLastFreedPieces(const Eigen::Vector3d& delta) {
+  post([this, delta] {
+    int last = -1;
+    for (std::size_t i = 1; i < bodies_.size(); ++i) last = std::max(last, bodies_[i].stroke);
+    for (std::size_t i = 1; i < bodies_.size(); ++i)
+      if (bodies_[i].stroke == last) moveHomes(bodies_[i], delta);
   });
 }
 
@@ -346,7 +352,7 @@ void PhysicsSession::addBodies() {
     if (std::any_of(bodies_.begin(), bodies_.end(), [&](const Body& b) { return b.id == o.id; })) continue;
     mesh::SurfaceMesh& m = meshOf(o.id);
     if (!physics::hasTissueProperties(m)) physics::attachTissueProperties(m, params_.tissue);
-    bodies_.push_back(Body{o.id, {}});
+    bodies_.push_back(Body{o.id, {}, strokes_});
   }
   objectCount_ = static_cast<int>(bodies_.size());
 #endif
@@ -406,6 +412,7 @@ void PhysicsSession::endCut() {
     }
     afterCut(r);
     preview_.clear();
+    ++strokes_;
   });
 #endif
 }

@@ -101,6 +101,8 @@ class PhysicsSession {
   void movePiece(int object, const Eigen::Vector3d& delta);
   // Every piece freed so far (on the simulation thread's order of commands).
   void moveAllPieces(const Eigen::Vector3d& delta);
+  // The pieces freed by the last stroke that freed any.
+  void moveLastFreedPieces(const Eigen::Vector3d& delta);
 
   // Scalpel cutting (when the cutting module is built): one stroke sample with the
   // blade's tip `depth` mm under the surface point `surface` whose outward normal is
@@ -124,7 +126,9 @@ class PhysicsSession {
   struct Body {
     int id = 0;
     physics::Dynamics dynamics;
+    int stroke = 0;  // the stroke that freed it
   };
+  void moveHomes(Body& b, const Eigen::Vector3d& delta);
   using Command = std::function<void()>;
 
   void post(Command c);
@@ -144,6 +148,7 @@ class PhysicsSession {
   std::unique_ptr<cutting::CutEngine> engine_;
   std::unique_ptr<mesh::SurfaceMesh> plain_;  // the tissue when the cutting module is absent
   std::vector<Body> bodies_;                  // sim thread
+  int strokes_ = 0;                           // strokes ended (sim thread)
   std::vector<std::pair<int, std::uint32_t>> forced_;
   std::optional<std::pair<int, std::uint32_t>> patchKey_;
   std::uint64_t patchTopology_ = ~std::uint64_t{0};
