@@ -583,8 +583,12 @@ void TriangleBvh::splitLeaf(const mesh::SurfaceMesh& m, std::uint32_t leaf, std:
   (cb.max - cb.min).maxCoeff(&axis);
   std::array<std::uint32_t, kLeafCapacity> order{};
   for (std::uint32_t i = 0; i < count; ++i) order[i] = i;
-  std::sort(order.begin(), order.begin() + count,
-            [&](std::uint32_t x, std::uint32_t y) { return c[x][axis] < c[y][axis]; });
+  for (std::uint32_t i = 1; i < count; ++i) {  // insertion sort of at most 4 (std::sort trips -Warray-bounds)
+    const std::uint32_t x = order[i];
+    std::uint32_t j = i;
+    for (; j > 0 && c[order[j - 1]][axis] > c[x][axis]; --j) order[j] = order[j - 1];
+    order[j] = x;
+  }
   const std::uint32_t l = newPair(leaf);
   const std::uint32_t newB = newBlock(l + 1);
   blockLeaf_[oldBlock] = l;
