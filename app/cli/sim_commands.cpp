@@ -116,6 +116,8 @@ QColor methodColor(Method m) {
       return QColor(148, 103, 189);
     case Method::ImplicitEuler:
       return QColor(255, 127, 14);
+    case Method::Xpbd:
+      return QColor(23, 190, 207);
   }
   return Qt::black;
 }

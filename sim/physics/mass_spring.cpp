@@ -43,6 +43,8 @@ std::string_view methodName(Method m) {
       return "rk4";
     case Method::ImplicitEuler:
       return "implicit_euler";
+    case Method::Xpbd:
+      return "xpbd";
   }
   return "?";
 }
@@ -50,8 +52,10 @@ std::string_view methodName(Method m) {
 Method methodFromName(std::string_view name) {
   for (Method m : kMethods)
     if (methodName(m) == name) return m;
+  if (name == methodName(Method::Xpbd)) return Method::Xpbd;
   std::string all;
   for (Method m : kMethods) all += (all.empty() ? "" : ", ") + std::string(methodName(m));
+  all += ", " + std::string(methodName(Method::Xpbd));
   throw UnknownNameError("unknown integrator '" + std::string(name) + "' (one of: " + all + ")");
 }
 
@@ -919,6 +923,56 @@ E0 implicitEuler(const Params& p, const View& w, Cache& c, const Vec3* x0, const
   return e0;
 }
 
+// Prediction with the external, gravity and damping terms (damping implicit), then
+// Gauss–Seidel sweeps over the spring and home constraints with multipliers reset each
+// step; v1 = (x1 − x0)/dt.
+E0 xpbd(const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt) {
+  c.forceZero = false;
+  const std::size_t n = w.n;
+  const E0 e0{potential(w, x0), kinetic(w, v0)};
+  const double damp = 1.0 / (1.0 + dt * w.c), dt2 = dt * dt;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (w.invMass[i] == 0.0) {
+      x1[i] = x0[i];
+      v1[i].setZero();
+      continue;
+    }
+    const Vec3 vp = damp * (v0[i] + dt * (w.invMass[i] * w.ext[i] + w.g));
+    x1[i] = x0[i] + dt * vp;
+  }
+  c.lambda.assign(w.nSprings, 0.0);
+  std::vector<Vec3>& lh = c.k1v;  // home multipliers
+  lh.assign(n, Vec3::Zero());
+  const double homeAlpha = w.homeK > 0.0 ? 1.0 / (w.homeK * dt2) : 0.0;
+  for (int it = 0; it < std::max(1, p.xpbdIterations); ++it) {
+    for (std::size_t s = 0; s < w.nSprings; ++s) {
+      const Spring& sp = w.springs[s];
+      const double wi = w.invMass[sp.i], wj = w.invMass[sp.j];
+      if (sp.k <= 0.0 || wi + wj == 0.0) continue;
+      const Vec3 d = x1[sp.j] - x1[sp.i];
+      const double l = d.norm();
+      if (!(l > 0.0)) continue;
+      const double alpha = 1.0 / (sp.k * dt2);
+      const double dl = (-(l - sp.rest) - alpha * c.lambda[s]) / (wi + wj + alpha);
+      c.lambda[s] += dl;
+      const Vec3 g = (dl / l) * d;
+      x1[sp.i] -= wi * g;
+      x1[sp.j] += wj * g;
+    }
+    if (w.homeK > 0.0)
+      for (std::size_t i = 0; i < n; ++i) {
+        const double wi = w.invMass[i];
+        if (wi == 0.0) continue;
+        const Vec3 dl = (-(x1[i] - w.home[i]) - homeAlpha * lh[i]) / (wi + homeAlpha);
+        lh[i] += dl;
+        x1[i] += wi * dl;
+      }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (w.invMass[i] != 0.0) v1[i] = (x1[i] - x0[i]) / dt;
+  return e0;
+}
+
 E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1,
              double dt) {
   switch (m) {
@@ -935,6 +989,8 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
       return rk4(w, c, x0, v0, x1, v1, dt);
     case Method::ImplicitEuler:
       return implicitEuler(p, w, c, x0, v0, x1, v1, dt);
+    case Method::Xpbd:
+      return xpbd(p, w, c, x0, v0, x1, v1, dt);
   }
   return {};
 }
