@@ -61,6 +61,7 @@ class MeshView : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   [[nodiscard]] const RenderMesh& mesh() const;
   // The cut's temporary segments (drawn over the surface) and the scalpel.
   void setPreview(std::vector<std::array<Vec3f, 3>> fromToDepth);
+  [[nodiscard]] const std::vector<std::array<Vec3f, 3>>& preview() const { return preview_; }
   void setScalpel(std::optional<ScalpelPose> pose);
   [[nodiscard]] const std::optional<ScalpelPose>& scalpel() const { return scalpel_; }
   void setCutDepth(double mm) { cutDepth_ = mm; }

@@ -95,9 +95,28 @@ TEST_F(GuiInteraction, DragInScalpelModeCutsAGroove) {
   v->setLeftDrag(ld::gui::LeftDrag::Cut);
   const QPointF start(240, 200);
   ASSERT_TRUE(v->pick(start).has_value());
+  // Hovering: the scalpel stands at the cursor, its tip the set depth under the surface.
+  v->setCutDepth(3.0);
+  mouse(v, QEvent::MouseMove, start, Qt::NoButton, Qt::NoModifier);
+  ASSERT_TRUE(v->scalpel().has_value()) << "no scalpel at the cursor in cut mode";
+  const auto surface = v->pick(start);
+  ASSERT_TRUE(surface.has_value());
+  EXPECT_NEAR((surface->point - v->scalpel()->tip).length(), 3.0F, 0.05F);
+  EXPECT_NEAR(v->scalpel()->tip.z(), surface->point.z() - 3.0F, 0.1F) << "straight down into the top face";
   mouse(v, QEvent::MouseButtonPress, start, Qt::LeftButton, Qt::NoModifier);
-  for (int k = 1; k <= 40; ++k) mouse(v, QEvent::MouseMove, start + QPointF(4.0 * k, 0), Qt::NoButton, Qt::NoModifier);
+  // The cut follows the blade at once: while the stroke is open, the engine's preview
+  // (the blade's point inside the current triangle) is drawn.
+  bool previewShown = false;
+  for (int k = 1; k <= 40; ++k) {
+    mouse(v, QEvent::MouseMove, start + QPointF(4.0 * k, 0), Qt::NoButton, Qt::NoModifier);
+    window_->syncPhysics();
+    previewShown = previewShown || !v->preview().empty();
+  }
+  EXPECT_TRUE(previewShown) << "no preview segment while cutting";
+  EXPECT_GT(v->scalpel()->tip.x(), surface->point.x() + 10.0F) << "the scalpel followed the cursor";
   mouse(v, QEvent::MouseButtonRelease, start + QPointF(160, 0), Qt::LeftButton, Qt::NoModifier);
+  window_->syncPhysics();
+  EXPECT_TRUE(v->preview().empty()) << "the preview ends with the stroke";
   ASSERT_TRUE(spinUntil([&] { return v->mesh().triangles.size() > before; })) << "no triangles were added";
   ASSERT_TRUE(spinUntil([&] {
     const auto& k = v->mesh().faceKind;
