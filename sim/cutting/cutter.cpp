@@ -333,10 +333,17 @@ struct CutEngine::Impl {
     const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
     const double L = (m.position(b) - m.position(a)).norm();
     const double t = L > 0 ? std::clamp((q - m.position(a)).norm() / L, 0.0, 1.0) : 0.5;
+    double hBefore = 1e300;
+    if (sliverTrace())
+      for (int k = 0; k < 2; ++k)
+        if (const Face g = m.face(e, k); g.isValid()) {
+          const auto& gv = m.vertices(g);
+          hBefore = std::min(hBefore, height(m.position(gv[0]), m.position(gv[1]), m.position(gv[2])));
+        }
     const Vertex v = m.splitEdge(e, q);
     if (tissue(obj)) physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
     touch(obj, {v});
-    traceThin(obj, {v}, "splitEdge");
+    traceThin(obj, {v}, hBefore < 0.25 * p.snapDistance ? "splitEdge/inherited" : "splitEdge/new");
     return v;
   }
 
@@ -527,7 +534,7 @@ struct CutEngine::Impl {
   // Extends the track's cut from its tip to N (an edge (tip, N) exists): the old tip
   // opens into two vertices (and so does the rest of a front chain that was not open
   // yet), and the opening is closed at once with wall triangles.
-  bool extend(Track& tr, Vertex N, const Vec3& depthN) {
+  bool extend(Track& tr, Vertex N, const Vec3& depthN, bool lastStep = false) {
     SurfaceMesh& m = meshOf(tr.object);
     mark(tr, N);
     if (!tr.tip.isValid()) {
@@ -602,7 +609,11 @@ struct CutEngine::Impl {
       if (paired || chain.size() > 1) {
         fill = fanOk ? Fill::Fan : (apexOk && chain.size() == 1 ? Fill::Apex : Fill::Defer);
       } else {
-        const bool reuse = apexProp[o] != 0 && (depthN - m.position(o)).norm() < p.grooveSpacing;
+        // Mid-stroke the bottom vertex is reused over about three path steps (fewer
+        // triangles per cut triangle on coarse meshes); the last step of a cut puts the
+        // bottom back at the blade's depth within grooveSpacing.
+        const double spacing = lastStep ? p.grooveSpacing : std::max(p.grooveSpacing, 2.5 * (pN - pv).norm());
+        const bool reuse = apexProp[o] != 0 && (depthN - m.position(o)).norm() < spacing;
         if (reuse && fanOk)
           fill = Fill::Fan;
         else if (apexOk)
@@ -1090,7 +1101,8 @@ struct CutEngine::Impl {
           const Vertex N = insertPoint(tr.object, f, tr.pending);
           ++stats.trianglesCut;
           ++res->trianglesCut;
-          if (N != tr.tip && !tr.visited.count(N) && m.findEdge(tr.tip, N).isValid()) extend(tr, N, tr.pendingDepth);
+          if (N != tr.tip && !tr.visited.count(N) && m.findEdge(tr.tip, N).isValid())
+            extend(tr, N, tr.pendingDepth, true);
         }
       }
     }
@@ -1461,6 +1473,98 @@ struct CutEngine::Impl {
         if (!singleFan(m, x)) pinchedScratch.push_back(x);
       }
       for (Vertex x : pinchedScratch) unpinch(obj, x);
+    }
+    for (const auto& [obj, v] : dirtyWork) {
+      if (indexOf(obj) < 0 || !meshOf(obj).isValid(v)) continue;
+      improveAround(obj, v);
+    }
+  }
+
+  // ---- sliver removal by local flips ------------------------------------------------------
+  // An edge the cut relies on (path, front, walls: both ends on one live track) is never flipped.
+  bool cutEdge(int obj, Vertex x, Vertex y) const {
+    for (const auto& h : hands)
+      for (const auto& t : h.tracks)
+        if (t.alive && t.object == obj && t.visited.count(x) && t.visited.count(y)) return true;
+    return false;
+  }
+
+  static double faceHeight(const SurfaceMesh& m, Face f) {
+    const auto& v = m.vertices(f);
+    return height(m.position(v[0]), m.position(v[1]), m.position(v[2]));
+  }
+
+  // Flips edge e (faces x,y,c and y,x,d become c,x,d and d,y,c) when both faces are of
+  // one kind, nearly coplanar (the surface keeps its shape), the quad is convex, and the
+  // smaller of the two heights grows. Returns true when flipped.
+  bool tryFlip(int obj, Edge e) {
+    SurfaceMesh& m = meshOf(obj);
+    if (!m.isValid(e) || m.isBoundary(e)) return false;
+    const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
+    const auto kind = m.faceProperty<int>(kFaceKindProp, kSurface);
+    if (kind[f0] != kind[f1]) return false;
+    // Orient: f0 runs x -> y.
+    const auto& v0 = m.vertices(f0);
+    const int i0 = m.localIndex(f0, m.vertex(e, 0));
+    Vertex x = m.vertex(e, 0), y = m.vertex(e, 1);
+    if (v0[static_cast<std::size_t>((i0 + 1) % 3)] != y) std::swap(x, y);
+    const Vertex c = m.oppositeVertex(f0, e), d = m.oppositeVertex(f1, e);
+    if (!c.isValid() || !d.isValid() || c == d || m.findEdge(c, d).isValid()) return false;
+    if (cutEdge(obj, x, y)) return false;
+    const Vec3 &px = m.position(x), &py = m.position(y), &pc = m.position(c), &pd = m.position(d);
+    const Vec3 n0 = (py - px).cross(pc - px), n1 = (px - py).cross(pd - py);
+    if (!(n0.norm() > 0.0) || !(n1.norm() > 0.0) || n0.normalized().dot(n1.normalized()) < 0.995) return false;
+    const Vec3 na = (px - pc).cross(pd - pc), nb = (py - pd).cross(pc - pd);
+    const Vec3 nSum = n0 + n1;
+    if (!(na.dot(nSum) > 0.0) || !(nb.dot(nSum) > 0.0)) return false;  // not convex
+    const double before = std::min(height(px, py, pc), height(py, px, pd));
+    const double after = std::min(height(pc, px, pd), height(pd, py, pc));
+    if (!(after > 1.5 * before)) return false;
+    const int k = kind[f0];
+    const std::size_t oi = static_cast<std::size_t>(indexOf(obj));
+    m.deleteFace(f0);
+    m.deleteFace(f1);
+    const std::array<Face, 2> gone{f0, f1};
+    bvhs[oi].removeFaces(m, gone);  // keeps the tree's sync local (no scan for dead faces)
+    const Face a = m.addFace(c, x, d);
+    const Face b = a.isValid() ? m.addFace(d, y, c) : Face();
+    if (!a.isValid() || !b.isValid()) {
+      // Cannot happen on a manifold mesh; put the original faces back.
+      if (a.isValid()) m.deleteFace(a);
+      m.faceProperty<int>(kFaceKindProp, kSurface)[m.addFace(x, y, c)] = k;
+      m.faceProperty<int>(kFaceKindProp, kSurface)[m.addFace(y, x, d)] = k;
+      return false;
+    }
+    auto kinds = m.faceProperty<int>(kFaceKindProp, kSurface);
+    kinds[a] = k;
+    kinds[b] = k;
+    ++stats.flips;
+    touch(obj, {x, y, c, d});
+    return true;
+  }
+
+  // Thin triangles around v: flip their longest edge where that helps.
+  void improveAround(int obj, Vertex v) {
+    SurfaceMesh& m = meshOf(obj);
+    const double floor = 0.5 * p.snapDistance;
+    for (int round = 0; round < 4; ++round) {
+      bool flipped = false;
+      for (Edge ev : m.edges(v)) {
+        for (int s = 0; s < 2 && !flipped; ++s) {
+          const Face f = m.face(ev, s);
+          if (!f.isValid() || faceHeight(m, f) >= floor) continue;
+          Edge longest;
+          double L = -1.0;
+          for (Edge g : m.edges(f))
+            if (m.edgeLength(g) > L) {
+              L = m.edgeLength(g);
+              longest = g;
+            }
+          flipped = tryFlip(obj, longest);
+        }
+        if (flipped) break;  // edges of v changed
+      }
+      if (!flipped) return;
     }
   }
 

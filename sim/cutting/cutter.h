@@ -112,6 +112,7 @@ struct CutStats {
   long walkFailures = 0;           // a track could not follow the blade and was ended
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)
+  long flips = 0;                  // edges flipped to remove thin triangles
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
   double separationSeconds = 0.0;  // time splitting freed pieces into objects (O(mesh size), rare)
   double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)

@@ -170,6 +170,7 @@ std::vector<Shape> shapes() {
 }
 
 TEST(CutterProperty, RandomStrokesKeepMeshesValid) {
+  g_minHeight = 1e300;
   const int count = std::max(1, static_cast<int>(70 * propertyScale()));
   const int maxReports = std::getenv("LD_CUT_ALL_FAILURES") ? 100000 : 10;
   int failures = 0;
@@ -188,6 +189,9 @@ TEST(CutterProperty, RandomStrokesKeepMeshesValid) {
             << ", thinnest triangle height " << g_minHeight << " mm, checks with a triangle under snap/4: " << g_thin
             << "\n";
   RecordProperty("min_triangle_height", std::to_string(g_minHeight));
+  // Empirical floor, not a proof: the thinnest triangle over 1050 strokes (scale 3) is
+  // 4.2e-5 mm with the local flips; without them 2.0e-5 mm already at scale 1.
+  EXPECT_GE(g_minHeight, 3e-5) << "a thinner triangle than any seen so far (mm)";
 }
 
 // The third-party meshes in ../shared/data: a few random strokes each, same checks.
@@ -216,6 +220,29 @@ TEST(CutterProperty, RandomStrokesOnSharedDataMeshes) {
     ++tried;
   }
   EXPECT_GT(tried, 0);
+}
+
+// The bundled disc and cylinder models (resources/models): a few random strokes each.
+TEST(CutterProperty, RandomStrokesOnBundledModels) {
+  const int count = std::max(1, static_cast<int>(4 * propertyScale()));
+  for (const char* name : {"disc.obj", "cylinder.obj"}) {
+    const auto file = ld::test::resourcesDir() / "models" / name;
+    ASSERT_TRUE(std::filesystem::exists(file)) << file;
+    const mesh::SurfaceMesh m = io::readMesh(file);
+    const Shape sh{name, [m] { return m; }};
+    for (int i = 0; i < count; ++i) {
+      const std::string err = runSeed(sh, 9000u + static_cast<unsigned>(i), 2);
+      EXPECT_EQ(err, "") << name << " seed " << 9000 + i;
+    }
+  }
+}
+
+// Frozen seeds found by larger runs (LD_PROPERTY_SCALE=3, LD_CUT_ALL_FAILURES=1).
+// cube 2183: a long unopened front (a chain of two) is closed by fillHoleAt over a loop
+// that holds a vertex next to its own copy; every triangulation then has a zero-area
+// triangle. Open bug (see sim/cutting/README.md), kept here so that the fix has a test.
+TEST(CutterPropertySeeds, DISABLED_Cube2183LongFrontFillMakesNoZeroAreaTriangle) {
+  EXPECT_EQ(runSeed(shapes()[1], 2183), "");
 }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed>.
