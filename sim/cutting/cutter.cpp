@@ -1531,8 +1531,8 @@ struct CutEngine::Impl {
     if (!a.isValid() || !b.isValid()) {
       // Cannot happen on a manifold mesh; put the original faces back.
       if (a.isValid()) m.deleteFace(a);
-      m.faceProperty<int>(kFaceKindProp, kSurface)[m.addFace(x, y, c)] = k;
-      m.faceProperty<int>(kFaceKindProp, kSurface)[m.addFace(y, x, d)] = k;
+      for (const Face g : {m.addFace(x, y, c), m.addFace(y, x, d)})
+        if (g.isValid()) m.faceProperty<int>(kFaceKindProp, kSurface)[g] = k;
       return false;
     }
     auto kinds = m.faceProperty<int>(kFaceKindProp, kSurface);

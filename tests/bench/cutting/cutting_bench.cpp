@@ -27,7 +27,7 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 void BM_Remesh(benchmark::State& state) {
   const double tipZ = state.range(0) == 0 ? -4.0 : 0.5;  // 0: cut-through, 1: groove
   const auto base = slab();
-  double us = 0, perTri = 0;
+  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0;
   long cut = 0;
   for (auto _ : state) {
     state.PauseTiming();
@@ -39,7 +39,11 @@ void BM_Remesh(benchmark::State& state) {
     us = st.remeshMicrosPerCutTriangle();
     cut = st.trianglesCut;
     perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
+    collUs = st.collisionQueries > 0 ? st.collisionSeconds * 1e6 / static_cast<double>(st.collisionQueries) : 0.0;
+    slowPerTri = static_cast<double>(st.slowSamples) / static_cast<double>(std::max(1L, st.trianglesCut));
   }
+  state.counters["collision_us_per_query"] = collUs;
+  state.counters["slow_samples_per_cut_triangle"] = slowPerTri;
   state.counters["remesh_us_per_cut_triangle"] = us;
   state.counters["triangles_added_per_cut_triangle"] = perTri;
   state.counters["triangles_cut"] = static_cast<double>(cut);
