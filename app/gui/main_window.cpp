@@ -382,8 +382,18 @@ void MainWindow::showLogin() {
 }
 
 void MainWindow::updateCounts() {
-  const RenderMesh& m = view_->mesh();
-  countsLabel_->setText(tr("Vertices: %1   Triangles: %2").arg(m.positions.size()).arg(m.triangles.size()));
+  // Vertices the triangles use (the simulation's lists keep deleted slots), over all objects.
+  std::size_t vertices = 0, triangles = 0;
+  for (const RenderMesh& m : view_->objects()) {
+    std::vector<bool> used(m.positions.size(), false);
+    for (const auto& t : m.triangles)
+      for (auto v : t) used[v] = true;
+    vertices += static_cast<std::size_t>(std::count(used.begin(), used.end(), true));
+    triangles += m.triangles.size();
+  }
+  QString text = tr("Vertices: %1   Triangles: %2").arg(vertices).arg(triangles);
+  if (view_->objects().size() > 1) text += tr("   Objects: %1").arg(view_->objects().size());
+  countsLabel_->setText(text);
 }
 
 void MainWindow::showModel(LoadedModel model) {

@@ -151,12 +151,14 @@ void PhysicsSession::run() {
 }
 
 void PhysicsSession::stepAll(double dt) {
-  std::uint64_t warnings = 0;
+  std::uint64_t warnings = 0, implicit = 0;
   for (auto& b : bodies_) {
     physics::step(params_, b.dynamics, meshOf(b.id), dt);
     warnings += b.dynamics.stability.warnings;
+    implicit += b.dynamics.stability.implicitFallbacks;
   }
   warnings_ = warnings;
+  implicit_ = implicit;
 }
 
 void PhysicsSession::publish() {
@@ -429,7 +431,8 @@ QString PhysicsSession::status() const {
                      .arg(simTime(), 0, 'f', 1)
                      .arg(meanStepUs_.load(), 0, 'f', 0)
                      .arg(late_.load());
-  if (const auto w = warnings_.load()) line += QStringLiteral(", %1 stability warnings").arg(w);
+  if (const auto w = warnings_.load())
+    line += QStringLiteral(", %1 stability warnings (%2 implicit fallbacks)").arg(w).arg(implicit_.load());
   if (const int n = objectCount_.load(); n > 1) line += QStringLiteral(", %1 pieces freed").arg(n - 1);
   if (pushForce_.load() > 0) line += QStringLiteral(", push %1 mN").arg(pushForce_.load(), 0, 'f', 0);
   if (trianglesCut_ > 0) line += QStringLiteral(", %1 triangles cut").arg(trianglesCut_.load());

@@ -171,7 +171,7 @@ class PhysicsSession {
   std::atomic<long> trianglesCut_{0};
   std::atomic<int> objectCount_{1};
   std::atomic<double> pushForce_{0.0};
-  std::atomic<std::uint64_t> warnings_{0}, late_{0}, steps_{0};
+  std::atomic<std::uint64_t> warnings_{0}, implicit_{0}, late_{0}, steps_{0};
   std::atomic<double> meanStepUs_{0.0};
   mutable std::mutex errorMutex_;
   std::string lastCutError_;
