@@ -53,6 +53,16 @@ TEST_F(SimCli, OscillatorAgainstTheAnalyticSolution) {
   EXPECT_LT(e1 / e2, 2.3);
 }
 
+TEST_F(SimCli, XpbdByName) {
+  // Stable at a step where the explicit methods need the monitor; first order on the
+  // oscillator (one home constraint), so it is close but not exact.
+  const auto j = benchJson("--scene oscillator --method xpbd --dt 0.01 --duration 1");
+  EXPECT_EQ(j["method"], "xpbd");
+  EXPECT_EQ(j["stable"], true);
+  EXPECT_LT(j["error_max"].get<double>(), 0.6);
+  EXPECT_GT(j["error_max"].get<double>(), 1e-6);
+}
+
 TEST_F(SimCli, PatchReleaseAndSliver) {
   const auto p = benchJson("--scene patch-release --method symplectic_euler --dt 0.001 --duration 0.02");
   EXPECT_EQ(p["stable"], true);

@@ -5,6 +5,7 @@
 // in place on the engine's mesh); the cost of a topology edit to the physics.
 //   physics_bench                                     (all, about a minute)
 //   physics_bench --benchmark_filter='Symplectic'     (the targets)
+// xpbd (a sixth method, by name only) at all sizes too.
 // 1M triangles: not for implicit Euler (assembling and solving the sparse system takes
 // seconds per step there) nor RK4 (four force passes; the 100k figure scales).
 #include <benchmark/benchmark.h>
@@ -71,6 +72,7 @@ void BM_SymplecticMonitored2Threads(benchmark::State& bs) { runSteps(bs, Method:
 void BM_Verlet(benchmark::State& bs) { runSteps(bs, Method::Verlet, false, 1); }
 void BM_Rk4(benchmark::State& bs) { runSteps(bs, Method::Rk4, false, 1); }
 void BM_ImplicitEuler(benchmark::State& bs) { runSteps(bs, Method::ImplicitEuler, false, 1); }
+void BM_Xpbd(benchmark::State& bs) { runSteps(bs, Method::Xpbd, false, 1); }  // 4 Gauss–Seidel sweeps
 
 #define LD_SMALL ->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMicrosecond)->MinTime(0.1)
 #define LD_SIZES LD_SMALL->Arg(1000000)
@@ -82,6 +84,7 @@ BENCHMARK(BM_ExplicitEuler) LD_SIZES;
 BENCHMARK(BM_Verlet) LD_SIZES;
 BENCHMARK(BM_Rk4) LD_SMALL;
 BENCHMARK(BM_ImplicitEuler) LD_SMALL;
+BENCHMARK(BM_Xpbd) LD_SIZES;
 
 // ---- cutting -------------------------------------------------------------------
 
