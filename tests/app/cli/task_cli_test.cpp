@@ -70,7 +70,7 @@ TEST(TaskCli, RefusesBadFilesWithReasons) {
 
 TEST(TaskCli, RunsAScriptedExpertAndNovice) {
   const std::string task = shellQuote((tasks() / "slab-straight-line.json").string());
-  double scores[2] = {0, 0};
+  double scores[2] = {0, 0}, deviations[2] = {0, 0}, bands[2] = {0, 0};
   for (int level : {0, 2}) {
     const auto traj = temp("traj" + std::to_string(level) + ".csv");
     auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
@@ -89,12 +89,23 @@ TEST(TaskCli, RunsAScriptedExpertAndNovice) {
     EXPECT_EQ(j["passed"].get<bool>(), level == 0) << r.out;
     EXPECT_EQ(j["contact_breaks"].get<int>(), level);
     scores[level / 2] = j["score"].get<double>();
+    deviations[level / 2] = j["deviation"]["total"].get<double>();
+    bands[level / 2] = j["band_fraction"].get<double>();
+    // The attempt went through the cutting engine: the tissue was cut, the drawn path
+    // followed the edits without a global search.
+    EXPECT_EQ(j["cutting"]["engine"], "ld::cutting::CutEngine");
+    EXPECT_GT(j["cutting"]["triangles_cut"].get<long>(), 10);
+    EXPECT_EQ(j["drawn_path"]["global_searches"].get<long>(), 0);
+    EXPECT_EQ(j["drawn_path"]["pieces"].get<int>(), 1 + j["path_breaks"].get<int>());
+    EXPECT_FALSE(j["deviation"]["no_cut"].get<bool>());
     if (level == 2) {
       EXPECT_FALSE(j["reasons"]["failed"].empty());
     }
     fs::remove(traj);
   }
   EXPECT_GT(scores[0], scores[1]);
+  EXPECT_LT(deviations[0], deviations[1]);
+  EXPECT_GE(bands[0], bands[1]);
 }
 
 TEST(TaskCli, RunRefusesBadTrajectory) {
