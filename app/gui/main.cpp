@@ -10,6 +10,9 @@
 // a JSON line with the simulation's figures goes to stdout.
 // With --screenshot it renders one frame of the model to OUT.png and exits
 // (0 on success, 2 on bad input, 1 when rendering or writing fails).
+#include <memory>
+#include <string_view>
+
 #include <QApplication>
 #include <QCommandLineParser>
 #include <QImage>
@@ -109,7 +112,18 @@ int main(int argc, char** argv) {
   format.setSamples(4);
   QSurfaceFormat::setDefaultFormat(format);
 
-  QApplication app(argc, argv);
+  // --help and --version need no display: a GUI application would abort without one.
+  bool infoOnly = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    infoOnly =
+        infoOnly || a == "--help" || a == "-h" || a == "-?" || a == "--help-all" || a == "--version" || a == "-v";
+  }
+  std::unique_ptr<QCoreApplication> app;
+  if (infoOnly)
+    app = std::make_unique<QCoreApplication>(argc, argv);
+  else
+    app = std::make_unique<QApplication>(argc, argv);
   QApplication::setApplicationName(QStringLiteral("lapdissect"));
   QApplication::setOrganizationName(QStringLiteral("lapdissect"));
   QApplication::setApplicationVersion(QStringLiteral("0.1.0"));

@@ -227,6 +227,18 @@ TEST(GuiScreenshot, BadOptionsExitWithTwo) {
   }
 }
 
+// Help and version are for terminals without a display too.
+TEST(GuiScreenshot, HelpAndVersionNeedNoDisplay) {
+  const auto h =
+      runCommand("env -u DISPLAY -u WAYLAND_DISPLAY QT_QPA_PLATFORM=xcb " + shellQuote(LD_GUI_BIN) + " --help");
+  EXPECT_EQ(h.exitCode, 0) << h.err;
+  EXPECT_NE(h.out.find("--screenshot"), std::string::npos) << h.out;
+  const auto v =
+      runCommand("env -u DISPLAY -u WAYLAND_DISPLAY QT_QPA_PLATFORM=xcb " + shellQuote(LD_GUI_BIN) + " --version");
+  EXPECT_EQ(v.exitCode, 0) << v.err;
+  EXPECT_NE(v.out.find("lapdissect"), std::string::npos) << v.out;
+}
+
 #ifdef LD_GUI_HAVE_CUTTING
 // The README's picture: a groove and a piece cut out and moved away (docs/images/cut_slab.png).
 TEST(GuiScreenshot, PolylineStrokesCutOutAPieceThatIsDraggedAway) {
