@@ -799,6 +799,41 @@ struct CutEngine::Impl {
     return at(0, n - 1);
   }
 
+  // Closes the loop with a fan around a new vertex at its centroid if every fan
+  // triangle is thicker than `than`. Returns false (mesh unchanged) otherwise.
+  bool fillLoopAroundCentroid(int obj, const std::vector<Vertex>& loop, double than, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    Vec3 c = Vec3::Zero();
+    for (Vertex v : loop) c += m.position(v);
+    c /= static_cast<double>(loop.size());
+    double q = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < loop.size(); ++i)
+      q = std::min(q, height(m.position(loop[i]), m.position(loop[(i + 1) % loop.size()]), c));
+    if (!(q > than)) return false;
+    const Vertex B = m.addVertex(c);
+    std::vector<Face> added;
+    for (std::size_t i = 0; i < loop.size(); ++i) {
+      const Face f = addTriangle(obj, loop[i], loop[(i + 1) % loop.size()], B, kind);
+      if (!f.isValid()) {
+        for (Face g : added) m.deleteFace(g);
+        m.deleteVertex(B);
+        return false;
+      }
+      added.push_back(f);
+    }
+    if (tissue(obj)) {
+      // Home and velocity from the nearest loop vertex, offset like the position.
+      Vertex nearest = loop.front();
+      for (Vertex v : loop)
+        if ((m.position(v) - c).squaredNorm() < (m.position(nearest) - c).squaredNorm()) nearest = v;
+      physics::initVertexCopy(m, B, nearest, p.tissue);
+      auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+      if (home) home[B] = home[nearest] + (c - m.position(nearest));
+    }
+    touch(obj, {B});
+    return true;
+  }
+
   bool fillLoop(int obj, const std::vector<Vertex>& loop, int kind) {
     SurfaceMesh& m = meshOf(obj);
     if (dbg()) {
@@ -816,6 +851,10 @@ struct CutEngine::Impl {
         },
         tris);
     if (!(q > -std::numeric_limits<double>::infinity())) return false;
+    // Every triangulation of the loop is thin (e.g. the only free diagonal joins a
+    // vertex and its own copy across a slit): close it around a new vertex at the
+    // loop's centroid instead, when that is thicker.
+    if (q < 0.5 * p.snapDistance && fillLoopAroundCentroid(obj, loop, q, kind)) return true;
     std::vector<Face> added;
     for (const auto& t : tris) {
       const Face f = addTriangle(obj, loop[static_cast<std::size_t>(t[0])], loop[static_cast<std::size_t>(t[1])],

@@ -242,8 +242,8 @@ TEST(CutterProperty, RandomStrokesOnBundledModels) {
 // Frozen seeds found by larger runs (LD_PROPERTY_SCALE=3, LD_CUT_ALL_FAILURES=1).
 // cube 2183: a long unopened front (a chain of two) is closed by fillHoleAt over a loop
 // that holds a vertex next to its own copy; every triangulation then has a zero-area
-// triangle. Open bug (see sim/cutting/README.md), kept here so that the fix has a test.
-TEST(CutterPropertySeeds, DISABLED_Cube2183LongFrontFillMakesNoZeroAreaTriangle) {
+// triangle. Fixed: such a loop is closed around a new vertex at its centroid.
+TEST(CutterPropertySeeds, Cube2183LongFrontFillMakesNoZeroAreaTriangle) {
   EXPECT_EQ(runSeed(shapes()[1], 2183), "");
 }
 
