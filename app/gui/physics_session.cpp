@@ -39,6 +39,9 @@ physics::Params PhysicsSession::defaultParams() {
   // below about 3 mN/mm a cut entering from the boundary left the tissue needing the
   // implicit fallback on every step (measured), so 3 it is.
   params.tissue.homeK = 3.0;
+  // Short edges made by cutting are stiff and light (k = K / rest): a mass floor keeps
+  // the 1 ms step stable there instead of the monitor's substeps.
+  params.tissue.massFloorDt = 1e-3;
   return params;
 }
 

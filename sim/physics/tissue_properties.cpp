@@ -58,12 +58,30 @@ bool hasTissueProperties(const SurfaceMesh& m) {
          m.getEdgeProperty<double>(kRestProp) && m.getEdgeProperty<double>(kStiffnessProp);
 }
 
+namespace {
+
+// The lightest mass massFloorDt allows for a vertex whose springs sum to sumK.
+double massFloor(const TissueParams& p, double sumK) {
+  return p.massFloorDt > 0.0 ? p.massFloorDt * p.massFloorDt * (p.homeK + 2.0 * sumK) : 0.0;
+}
+
+double springSum(const SurfaceMesh& m, Vertex v) {
+  const auto k = m.getEdgeProperty<double>(kStiffnessProp);
+  double sum = 0.0;
+  if (k)
+    for (Edge e : m.edges(v)) sum += k[e];
+  return sum;
+}
+
+}  // namespace
+
 double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) {
-  if (p.uniformMass) return p.vertexMass;
+  const double floor = p.massFloorDt > 0.0 ? massFloor(p, springSum(m, v)) : 0.0;
+  if (p.uniformMass) return std::max(p.vertexMass, floor);
   const auto home = requireV<Vec3>(m, kHomeProp);
   double area = 0.0;
   for (Face f : m.faces(v)) area += homeArea(m, home, f);
-  return std::max(p.density * area / 3.0, p.minMass);
+  return std::max({p.density * area / 3.0, p.minMass, floor});
 }
 
 void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
@@ -91,8 +109,11 @@ void redistributeMass(SurfaceMesh& m, std::span<const Vertex> vertices, const Ti
 
 void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
   auto mass = requireV<double>(m, kMassProp);
+  std::vector<double> floor(m.verticesSize(), 0.0);
+  if (p.massFloorDt > 0.0)
+    for (Vertex v : m.vertices()) floor[v.idx()] = massFloor(p, springSum(m, v));
   if (p.uniformMass) {
-    for (Vertex v : m.vertices()) mass[v] = p.vertexMass;
+    for (Vertex v : m.vertices()) mass[v] = std::max(p.vertexMass, floor[v.idx()]);
     return;
   }
   // One pass over faces instead of per-vertex face lists.
@@ -102,7 +123,7 @@ void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
     const double a = homeArea(m, home, f);
     for (Vertex v : m.vertices(f)) area[v.idx()] += a;
   }
-  for (Vertex v : m.vertices()) mass[v] = std::max(p.density * area[v.idx()] / 3.0, p.minMass);
+  for (Vertex v : m.vertices()) mass[v] = std::max({p.density * area[v.idx()] / 3.0, p.minMass, floor[v.idx()]});
 }
 
 void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, const TissueParams& p) {

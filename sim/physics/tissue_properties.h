@@ -47,15 +47,20 @@ enum class NewVertexHome {
 };
 
 struct TissueParams {
-  double restRatio = 0.7;                             // rest length = ratio × initial length (pre-stretch)
-  double K = 10.0;                                    // mesh spring constant [mN]; k = K / rest  [mN/mm]
-  double homeK = 10.0;                                // home spring stiffness per vertex        [mN/mm]
-  double damping = 15.0;                              // velocity damping rate [1/s]: f = −damping·m·v
-  double density = 5e-6;                              // areal density [kg/mm²] (≈ 1000 kg/m³ × 5 mm)
-  bool uniformMass = false;                           // every vertex gets vertexMass
-  double vertexMass = 1e-4;                           // [kg], used when uniformMass
-  double minMass = 1e-9;                              // floor for vertices with (near) zero area
-  double minRest = 1e-3;                              // floor for rest lengths [mm] (bounds k = K / rest)
+  double restRatio = 0.7;    // rest length = ratio × initial length (pre-stretch)
+  double K = 10.0;           // mesh spring constant [mN]; k = K / rest  [mN/mm]
+  double homeK = 10.0;       // home spring stiffness per vertex        [mN/mm]
+  double damping = 15.0;     // velocity damping rate [1/s]: f = −damping·m·v
+  double density = 5e-6;     // areal density [kg/mm²] (≈ 1000 kg/m³ × 5 mm)
+  bool uniformMass = false;  // every vertex gets vertexMass
+  double vertexMass = 1e-4;  // [kg], used when uniformMass
+  double minMass = 1e-9;     // floor for vertices with (near) zero area
+  double minRest = 1e-3;     // floor for rest lengths [mm] (bounds k = K / rest)
+  // Selective mass scaling, off at 0: no vertex is lighter than dt² · (homeK + 2·Σk of
+  // its springs), which bounds ω·dt ≤ 1 for a symplectic step of this size
+  // (Gershgorin). Short edges made by cutting (k = K / rest) are stiff and light and
+  // would otherwise force substeps; equilibria do not change, only inertia. [s]
+  double massFloorDt = 0.0;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // [mm/s²]; off by default
   NewVertexHome newVertexHome = NewVertexHome::Interpolated;
 };
