@@ -3,14 +3,21 @@
 # Benchmark program (build-bench/bench/*) plus the CLI's `sim bench` on the built-in
 # scenes, writing JSON to build-bench/results/. Run it on a quiet machine; nothing
 # here is asserted (the tests never time anything).
-#   scripts/bench.sh [benchmark-name-regex]      e.g. scripts/bench.sh physics
+#   scripts/bench.sh [program-regex [benchmark args...]]
+#   e.g. scripts/bench.sh physics --benchmark_filter=Symplectic
 set -euo pipefail
 cd "$(dirname "$0")/.."
 filter=${1:-.}
+shift || true
+# The same configuration and ccache settings as the test script's Release build, so the
+# objects come from the cache after a test run.
+export CCACHE_BASEDIR="$(pwd)" CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G} CCACHE_NOHASHDIR=1
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
-cmake -S . -B build-bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_BUILD_BENCHMARKS=ON "${launcher[@]}" >/dev/null
-cmake --build build-bench -j"$(nproc)"
+cmake -S . -B build-bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_WERROR=ON -DLD_BUILD_BENCHMARKS=ON \
+  "${launcher[@]}" >/dev/null
+cmake --build build-bench -j"$(nproc)" --target physics_bench collision_bench cutting_bench curriculum_bench \
+  database_bench lapdissect-cli
 out=build-bench/results
 mkdir -p "$out"
 echo "machine: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)" | tee "$out/machine.txt"
@@ -18,7 +25,7 @@ for b in build-bench/bench/*; do
   name=$(basename "$b")
   [[ "$name" =~ $filter ]] || continue
   echo "== $name"
-  "$b" --benchmark_out="$out/$name.json" --benchmark_out_format=json --benchmark_counters_tabular=true
+  "$b" --benchmark_out="$out/$name.json" --benchmark_out_format=json --benchmark_counters_tabular=true "$@"
 done
 if [[ "sim" =~ $filter ]] || [ "$filter" = . ]; then
   for scene in oscillator patch-release sliver; do
