@@ -61,23 +61,6 @@ inline bool mayHit(const Vector3d& a, const Vector3d& b, double segScale, const 
   return true;
 }
 
-// The exact test's answer as a SurfaceHit, as intersectSegmentFace builds it.
-SurfaceHit toHit(const mesh::SurfaceMesh& m, Face f, const std::array<Vertex, 3>& vs, const SegTriResult& r) {
-  SurfaceHit h;
-  h.face = f;
-  h.kind = r.kind;
-  h.local = r.local;
-  if (r.kind == HitKind::OnEdge) h.edge = m.edges(f)[static_cast<std::size_t>(r.local)];
-  if (r.kind == HitKind::OnVertex) h.vertex = vs[static_cast<std::size_t>(r.local)];
-  h.t = r.t;
-  h.tExit = r.tExit;
-  h.bary = r.bary;
-  h.point = r.point;
-  h.direction = r.direction;
-  h.endTouch = r.endTouch;
-  return h;
-}
-
 // Segment a->b against boxes: slab test with the inverse direction precomputed and
 // the near/far planes chosen by its signs. An axis the segment does not move along
 // has inv = +-inf: the products are +-inf (outside) or NaN (on the plane), and NaN
@@ -834,7 +817,7 @@ void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a
       if (!mayHit(a, b, segScale, p0, p1, p2, tol_)) continue;
       ++qc.exact;
       const SegTriResult res = intersectSegmentTriangle(a, b, p0, p1, p2, tol_);
-      if (res.hit()) out.push_back(toHit(m, Face(r.face), m.vertices(Face(r.face)), res));
+      if (res.hit()) out.push_back(toSurfaceHit(m, Face(r.face), res));
     }
     return false;
   };
@@ -918,7 +901,7 @@ bool TriangleBvh::firstHit(const mesh::SurfaceMesh& m, const Vector3d& a, const 
     ++qc.exact;
     const SegTriResult r = intersectSegmentTriangle(a, b, p0, p1, p2, tol_);
     if (!r.hit()) return;
-    hits.push_back(toHit(m, f, m.vertices(f), r));
+    hits.push_back(toSurfaceHit(m, f, r));
     tMin = std::min(tMin, r.t);
   };
   auto testFace = [&](Face f) {

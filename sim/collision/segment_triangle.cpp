@@ -147,17 +147,14 @@ SegTriResult intersectSegmentTriangle(const Vector3d& a, const Vector3d& b, cons
   return r;
 }
 
-SurfaceHit intersectSegmentFace(const mesh::SurfaceMesh& m, mesh::Face f, const Vector3d& a, const Vector3d& b,
-                                const Tolerance& tol) {
+SurfaceHit toSurfaceHit(const mesh::SurfaceMesh& m, mesh::Face f, const SegTriResult& r) {
   SurfaceHit h;
-  const auto& vs = m.vertices(f);
-  const SegTriResult r = intersectSegmentTriangle(a, b, m.position(vs[0]), m.position(vs[1]), m.position(vs[2]), tol);
   if (!r.hit()) return h;
   h.face = f;
   h.kind = r.kind;
   h.local = r.local;
   if (r.kind == HitKind::OnEdge) h.edge = m.edges(f)[static_cast<std::size_t>(r.local)];
-  if (r.kind == HitKind::OnVertex) h.vertex = vs[static_cast<std::size_t>(r.local)];
+  if (r.kind == HitKind::OnVertex) h.vertex = m.vertices(f)[static_cast<std::size_t>(r.local)];
   h.t = r.t;
   h.tExit = r.tExit;
   h.bary = r.bary;
@@ -165,6 +162,13 @@ SurfaceHit intersectSegmentFace(const mesh::SurfaceMesh& m, mesh::Face f, const 
   h.direction = r.direction;
   h.endTouch = r.endTouch;
   return h;
+}
+
+SurfaceHit intersectSegmentFace(const mesh::SurfaceMesh& m, mesh::Face f, const Vector3d& a, const Vector3d& b,
+                                const Tolerance& tol) {
+  const auto& vs = m.vertices(f);
+  return toSurfaceHit(m, f,
+                      intersectSegmentTriangle(a, b, m.position(vs[0]), m.position(vs[1]), m.position(vs[2]), tol));
 }
 
 double defaultMergeDistance(const Vector3d& a, const Vector3d& b, const Tolerance& tol) {

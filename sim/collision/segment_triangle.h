@@ -88,6 +88,10 @@ void canonicalizeHits(const mesh::SurfaceMesh& m, std::vector<SurfaceHit>& hits,
 std::vector<SurfaceHit> intersectSegment(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                          const Tolerance& tol = {});
 
+// The result of the exact test on face f as a SurfaceHit (edge/vertex filled in from
+// the face); kind None when r is no hit.
+SurfaceHit toSurfaceHit(const mesh::SurfaceMesh& m, mesh::Face f, const SegTriResult& r);
+
 // Hit of one face as a SurfaceHit (kind None when no hit); fills edge/vertex.
 SurfaceHit intersectSegmentFace(const mesh::SurfaceMesh& m, mesh::Face f, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const Tolerance& tol = {});
