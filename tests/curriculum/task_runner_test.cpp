@@ -5,6 +5,7 @@
 #include "curriculum/task_runner.h"
 
 #include "curriculum/tissue_path.h"
+#include "tests/curriculum/grid_mesh.h"
 #include "tests/support/test_support.h"
 
 namespace ld::curriculum {
@@ -14,20 +15,7 @@ using V = Eigen::Vector3d;
 using instruments::Hand;
 using instruments::Tool;
 
-// n x n squares of 1 mm on z = 0 (an open sheet: the engine cuts it through).
-mesh::SurfaceMesh sheet(int n) {
-  mesh::SurfaceMesh m;
-  std::vector<mesh::Vertex> v;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) v.push_back(m.addVertex(V(i, j, 0)));
-  auto id = [&](int i, int j) { return v[static_cast<std::size_t>(j * (n + 1) + i)]; };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.addFace(id(i, j), id(i + 1, j), id(i + 1, j + 1));
-      m.addFace(id(i, j), id(i + 1, j + 1), id(i, j + 1));
-    }
-  return m;
-}
+using testmesh::grid;
 
 // A straight drawn path along x at y = 3 (on grid edges and through grid vertices).
 Task lineTask() {
@@ -66,7 +54,7 @@ devices::Trajectory stroke(double xCut, double y0, double y1, double z, double h
 
 TEST(TaskRunner, CutsThroughTheEngineBreaksAndKeepsTheDrawnPath) {
   const Task task = lineTask();
-  const mesh::SurfaceMesh m = sheet(6);
+  const mesh::SurfaceMesh m = grid(6);
   const RunResult r = runTask(task, m, stroke(2.75, 1.0, 5.0, -1.0, 100));
   // The engine cut the tissue.
   EXPECT_GT(r.cutStats.trianglesCut, 0);
@@ -97,7 +85,7 @@ TEST(TaskRunner, CutsThroughTheEngineBreaksAndKeepsTheDrawnPath) {
 TEST(TaskRunner, EmbeddedPathFollowsEditsOnlyWhereFacesChanged) {
   // Directly on the engine: after cutting across, every path point is where it was
   // and the path has a stop where the cut crossed.
-  mesh::SurfaceMesh m = sheet(6);
+  mesh::SurfaceMesh m = grid(6);
   cutting::CutEngine engine;
   const int obj = engine.addObject(std::move(m));
   const Task task = lineTask();
@@ -140,7 +128,7 @@ TEST(TaskRunner, EmbeddedPathFollowsEditsOnlyWhereFacesChanged) {
 
 TEST(TaskRunner, NothingCutIsNotPerfect) {
   const Task task = lineTask();
-  const mesh::SurfaceMesh m = sheet(6);
+  const mesh::SurfaceMesh m = grid(6);
   const RunResult none = runTask(task, m, stroke(2.75, 1.0, 5.0, 10.0, 100));  // far above the tissue
   EXPECT_TRUE(none.cut.empty());
   EXPECT_TRUE(none.metrics.noCut);

@@ -1,6 +1,7 @@
 #include "curriculum/tissue_path.h"
 
 #include "curriculum/curriculum_error.h"
+#include "tests/curriculum/grid_mesh.h"
 #include "tests/support/test_support.h"
 
 namespace ld::curriculum {
@@ -8,20 +9,7 @@ namespace {
 
 using V = Eigen::Vector3d;
 
-// n x n unit squares on z = 0, two triangles each, x and y in [0, n].
-mesh::SurfaceMesh grid(int n) {
-  mesh::SurfaceMesh m;
-  std::vector<mesh::Vertex> v;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) v.push_back(m.addVertex(V(i, j, 0)));
-  auto id = [&](int i, int j) { return v[static_cast<std::size_t>(j * (n + 1) + i)]; };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.addFace(id(i, j), id(i + 1, j), id(i + 1, j + 1));
-      m.addFace(id(i, j), id(i + 1, j + 1), id(i, j + 1));
-    }
-  return m;
-}
+using testmesh::grid;
 
 Polyline straight(double y, int n, double x0 = 0.3, double x1 = 3.7) {
   std::vector<V> pts;
