@@ -40,6 +40,13 @@ struct Oscillator {
   }
 };
 
+// An 8 x 8 patch of 4 mm squares with the vertex nearest its centre pushed 5 mm down.
+inline State pushedPatch(const Params& p) {
+  State s = makeState(makeGrid(8, 8, 4.0), p.tissue);
+  s.mesh.position(nearestVertex(s.mesh, Eigen::Vector3d(16, 16, 0))).z() -= 5.0;
+  return s;
+}
+
 inline std::vector<Eigen::Vector3d> positionsOf(const State& s) { return s.mesh.positions(); }
 
 inline double maxDiff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {

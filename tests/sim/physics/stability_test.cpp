@@ -7,6 +7,7 @@
 
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/scenes.h"
+#include "tests/sim/physics/physics_test_util.h"
 #include "tests/support/test_support.h"
 
 namespace ld::physics {
@@ -14,11 +15,7 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-State pushedPatch(const Params& p) {
-  State s = makeState(makeGrid(8, 8, 4.0), p.tissue);
-  s.mesh.position(nearestVertex(s.mesh, Vec3(16, 16, 0))).z() -= 5.0;
-  return s;
-}
+using testutil::pushedPatch;
 
 TEST(Stability, ExplicitMethodsPastTheirLimitNeverPublishNaN) {
   for (Method m : {Method::ExplicitEuler, Method::SymplecticEuler, Method::Verlet, Method::Rk4}) {

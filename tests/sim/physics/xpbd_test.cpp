@@ -13,11 +13,7 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-State pushedPatch(const Params& p) {
-  State s = makeState(makeGrid(8, 8, 4.0), p.tissue);
-  s.mesh.position(nearestVertex(s.mesh, Vec3(16, 16, 0))).z() -= 5.0;
-  return s;
-}
+using testutil::pushedPatch;
 
 TEST(Xpbd, SelectableByNameButNotInTheCharts) {
   EXPECT_EQ(methodFromName("xpbd"), Method::Xpbd);
