@@ -34,7 +34,8 @@ function(ld_add_gtest name)
   endif()
   # gtest_discover_tests splits list-valued PROPERTIES, so labels and environment are
   # set from an include file that runs after discovery.
-  gtest_discover_tests(${name} TEST_LIST ${name}_TESTS DISCOVERY_TIMEOUT 60)
+  # The program name prefixes every test, so `ctest -R physics_test` selects one module.
+  gtest_discover_tests(${name} TEST_PREFIX "${name}." TEST_LIST ${name}_TESTS DISCOVERY_TIMEOUT 60)
   file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/${name}_props.cmake
     "if(${name}_TESTS)\n  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${A_LABELS}\"\n"
     "    ENVIRONMENT \"LD_SHARED_DATA=${LD_SHARED_DATA_DIR};LD_RESOURCES=${LD_RESOURCES_DIR}\")\nendif()\n")
