@@ -74,6 +74,10 @@ struct ActiveRegionOptions {
   double forceThreshold = 0.2;  // [mN]
   double speedThreshold = 1.0;  // [mm/s]
   int sleepAfter = 20;          // quiet steps before a vertex sleeps
+  // Look at every vertex's external force each step (O(vertices)). Off, only vertices
+  // named with wake() (and the awake ones) are looked at, so a step costs in proportion
+  // to the awake region: what a large tissue touched in one place needs.
+  bool scanExternalForces = true;
 };
 
 struct Params {
@@ -169,10 +173,11 @@ struct Cache {
   std::uint64_t localUpdates = 0;
 };
 struct ActiveSet {
-  std::vector<std::uint8_t> awake;
+  std::vector<std::uint8_t> awake;                 // 0 asleep, 1 awake, 2 fell asleep this step
   std::vector<std::uint16_t> quiet;
-  std::vector<std::uint32_t> list;                 // awake vertices
-  std::vector<std::uint32_t> springList;           // springs touching an awake vertex
+  std::vector<std::uint32_t> list;                 // awake vertices (kept between steps)
+  std::vector<std::uint32_t> pending;              // named by wake(), woken at the next step
+  std::vector<std::uint8_t> loud;                  // step scratch
   std::vector<std::uint32_t> csrStart, csrSpring;  // vertex → incident springs
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
 };
@@ -218,6 +223,11 @@ struct StepInfo {
 StepInfo step(const Params& params, State& state, double dt);
 // The same on a mesh owned elsewhere (in place; the mesh needs the tissue properties).
 StepInfo step(const Params& params, Dynamics& dynamics, mesh::SurfaceMesh& mesh, double dt);
+
+// Active-region mode: the vertices a contact touches (external force set) wake at the
+// next step and stay awake while their force is not zero. Needed with
+// ActiveRegionOptions::scanExternalForces off; the names wait for the next active step.
+void wake(Dynamics& dynamics, std::span<const mesh::Vertex> vertices);
 
 // One raw step of `method` without the monitor (for analysis; may diverge).
 // Returns false when the result is not finite (the state is still updated).

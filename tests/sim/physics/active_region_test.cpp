@@ -58,5 +58,53 @@ TEST(ActiveRegion, UntouchedSettledTissueFallsAsleep) {
   EXPECT_GT(step(p, s, 1e-3).activeVertices, 7u);  // spread to the neighbours
 }
 
+// Without the O(vertices) force scan, contacts named with wake() give the same motion
+// bit for bit, and a force on a sleeper nobody named is not seen.
+TEST(ActiveRegion, NamedContactsMatchTheForceScan) {
+  Params scan;
+  scan.active.enabled = true;
+  Params named = scan;
+  named.active.scanExternalForces = false;
+  State eq = makeState(makeGrid(20, 20, 4.0), scan.tissue);
+  Params fullP = scan;
+  fullP.active.enabled = false;
+  settle(fullP, eq);
+  State a = eq, b = eq;
+  for (int i = 0; i < 60; ++i) {  // everything falls asleep
+    step(scan, a, 1e-3);
+    step(named, b, 1e-3);
+  }
+  ASSERT_EQ(step(named, b, 1e-3).activeVertices, 0u);
+  step(scan, a, 1e-3);
+  const mesh::Vertex v = nearestVertex(eq.mesh, Vec3(40, 40, 0));
+  std::size_t workedA = 0, workedB = 0;
+  double pushedBy = 0.0;
+  for (int i = 0; i < 400; ++i) {
+    const Vec3 f = i < 200 ? Vec3(0, 0, -5.0) : Vec3::Zero();
+    a.mesh.getVertexProperty<Vec3>(kForceProp)[v] = f;
+    b.mesh.getVertexProperty<Vec3>(kForceProp)[v] = f;
+    if (i == 0) wake(b, std::span<const mesh::Vertex>(&v, 1));
+    workedA += step(scan, a, 1e-3).activeVertices;
+    workedB += step(named, b, 1e-3).activeVertices;
+    ASSERT_EQ(testutil::maxDiff(a.mesh.positions(), b.mesh.positions()), 0.0) << "step " << i;
+    if (i == 199) pushedBy = testutil::maxDiff(eq.mesh.positions(), testutil::positionsOf(a));
+  }
+  EXPECT_EQ(workedA, workedB);
+  EXPECT_GT(workedA, 400u);  // the push woke a region, not just the vertex
+  EXPECT_GT(pushedBy, 0.2);  // mm
+
+  // Let it fall asleep again, then push without naming the vertex: nothing moves.
+  for (int i = 0; i < 2000 && step(named, b, 1e-3).activeVertices > 0; ++i) {
+  }
+  ASSERT_EQ(step(named, b, 1e-3).activeVertices, 0u);
+  const auto before = testutil::positionsOf(b);
+  b.mesh.getVertexProperty<Vec3>(kForceProp)[v] = Vec3(0, 0, -5.0);
+  EXPECT_EQ(step(named, b, 1e-3).activeVertices, 0u);
+  EXPECT_EQ(testutil::maxDiff(before, testutil::positionsOf(b)), 0.0);
+  wake(b, std::span<const mesh::Vertex>(&v, 1));
+  EXPECT_EQ(step(named, b, 1e-3).activeVertices, 1u);
+  EXPECT_GT(testutil::maxDiff(before, testutil::positionsOf(b)), 0.0);
+}
+
 }  // namespace
 }  // namespace ld::physics
