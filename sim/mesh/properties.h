@@ -14,11 +14,33 @@
 
 namespace ld::mesh {
 
+// How a property array is copied with its mesh. Lists per element (a vertex's edges)
+// get a little room beyond their length, since edits near them add an edge or two:
+// without it, the first edit next to each vertex of a copied mesh reallocates its list.
+// Same number of allocations as a plain copy.
+template <class T>
+void copyPropertyData(const std::vector<T>& from, std::vector<T>& to) {
+  to = from;
+}
+template <class E>
+void copyPropertyData(const std::vector<std::vector<E>>& from, std::vector<std::vector<E>>& to) {
+  constexpr std::size_t kSlack = 4;
+  to.clear();
+  to.reserve(from.size());
+  for (const auto& list : from) {
+    auto& copy = to.emplace_back();
+    if (list.empty()) continue;
+    copy.reserve(list.size() + kSlack);
+    copy.assign(list.begin(), list.end());
+  }
+}
+
 class BasePropertyArray {
  public:
   explicit BasePropertyArray(std::string name) : name_(std::move(name)) {}
   virtual ~BasePropertyArray() = default;
   virtual void resize(std::size_t n) = 0;
+  virtual void reserve(std::size_t n) = 0;
   virtual void pushBack() = 0;
   virtual void copyElement(std::size_t from, std::size_t to) = 0;
   // Keeps element old[i] at position i for i < keep.size().
@@ -36,6 +58,7 @@ class PropertyArray final : public BasePropertyArray {
  public:
   PropertyArray(std::string name, T def) : BasePropertyArray(std::move(name)), default_(std::move(def)) {}
   void resize(std::size_t n) override { data_.resize(n, default_); }
+  void reserve(std::size_t n) override { data_.reserve(n); }
   void pushBack() override { data_.push_back(default_); }
   void copyElement(std::size_t from, std::size_t to) override { data_[to] = data_[from]; }
   void compact(const std::vector<std::size_t>& keep) override {
@@ -46,7 +69,7 @@ class PropertyArray final : public BasePropertyArray {
   }
   [[nodiscard]] std::unique_ptr<BasePropertyArray> clone() const override {
     auto p = std::make_unique<PropertyArray<T>>(name(), default_);
-    p->data_ = data_;
+    copyPropertyData(data_, p->data_);
     return p;
   }
   [[nodiscard]] const std::type_info& type() const override { return typeid(T); }
@@ -86,7 +109,8 @@ class Property {
 class PropertyContainer {
  public:
   PropertyContainer() = default;
-  PropertyContainer(const PropertyContainer& o) : size_(o.size_) {
+  // Copies hold exactly their elements; the first growth reserves for all arrays.
+  PropertyContainer(const PropertyContainer& o) : size_(o.size_), capacity_(o.size_) {
     for (const auto& a : o.arrays_) arrays_.push_back(a->clone());
   }
   PropertyContainer& operator=(const PropertyContainer& o) {
@@ -94,16 +118,24 @@ class PropertyContainer {
       PropertyContainer tmp(o);
       std::swap(arrays_, tmp.arrays_);
       size_ = o.size_;
+      capacity_ = o.size_;
     }
     return *this;
   }
-  PropertyContainer(PropertyContainer&&) noexcept = default;
-  PropertyContainer& operator=(PropertyContainer&&) noexcept = default;
+  PropertyContainer(PropertyContainer&& o) noexcept
+      : arrays_(std::move(o.arrays_)), size_(std::exchange(o.size_, 0)), capacity_(std::exchange(o.capacity_, 0)) {}
+  PropertyContainer& operator=(PropertyContainer&& o) noexcept {
+    arrays_ = std::move(o.arrays_);
+    size_ = std::exchange(o.size_, 0);
+    capacity_ = std::exchange(o.capacity_, 0);
+    return *this;
+  }
 
   template <class T>
   PropertyArray<T>* add(const std::string& name, T def) {
     if (find(name)) throw PropertyError("property '" + name + "' already exists");
     auto a = std::make_unique<PropertyArray<T>>(name, std::move(def));
+    a->reserve(capacity_);
     a->resize(size_);
     auto* raw = a.get();
     arrays_.push_back(std::move(a));
@@ -126,23 +158,34 @@ class PropertyContainer {
     return n;
   }
 
+  // Grows every array together and geometrically, so that an edit adding one element
+  // reallocates all arrays at once, rarely, instead of each at its own moment.
   void pushBack() {
+    if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
     for (auto& a : arrays_) a->pushBack();
     ++size_;
   }
   void resize(std::size_t n) {
     for (auto& a : arrays_) a->resize(n);
     size_ = n;
+    capacity_ = std::max(capacity_, n);
   }
-  void reserve(std::size_t) {}
+  void reserve(std::size_t n) {
+    if (n <= capacity_) return;
+    for (auto& a : arrays_) a->reserve(n);
+    capacity_ = n;
+  }
   void copyElement(std::size_t from, std::size_t to) {
     for (auto& a : arrays_) a->copyElement(from, to);
   }
   void compact(const std::vector<std::size_t>& keep) {
     for (auto& a : arrays_) a->compact(keep);
     size_ = keep.size();
+    capacity_ = size_;
   }
   [[nodiscard]] std::size_t size() const { return size_; }
+  // Every array can hold this many elements without reallocating.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
  private:
   BasePropertyArray* find(const std::string& name) const {
@@ -152,6 +195,7 @@ class PropertyContainer {
   }
   std::vector<std::unique_ptr<BasePropertyArray>> arrays_;
   std::size_t size_ = 0;
+  std::size_t capacity_ = 0;  // a lower bound of every array's capacity
 };
 
 }  // namespace ld::mesh

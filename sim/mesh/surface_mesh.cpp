@@ -119,13 +119,12 @@ void SurfaceMesh::clear() {
   ++topologyVersion_;
 }
 
+// Every property, built-in or attached, so that the edits up to these sizes do not
+// reallocate an array.
 void SurfaceMesh::reserve(std::size_t nv, std::size_t ne, std::size_t nf) {
-  points_.vector().reserve(nv);
-  vedges_.vector().reserve(nv);
-  everts_.vector().reserve(ne);
-  efaces_.vector().reserve(ne);
-  fverts_.vector().reserve(nf);
-  fedges_.vector().reserve(nf);
+  vprops_.reserve(nv);
+  eprops_.reserve(ne);
+  fprops_.reserve(nf);
 }
 
 void SurfaceMesh::removeVertexProperty(const std::string& name) {
@@ -176,13 +175,21 @@ Vertex SurfaceMesh::addVertex(const Point& p) {
   return v;
 }
 
+// A new vertex's edge list gets room for a usual valence at once, instead of
+// growing 1, 2, 4, 8 (one allocation instead of four).
+void SurfaceMesh::addEdgeToVertex(Vertex v, Edge e) {
+  auto& list = vedges_[v];
+  if (list.capacity() == 0) list.reserve(8);
+  list.push_back(e);
+}
+
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
   eprops_.pushBack();
   Edge e(edgesSize() - 1);
   everts_[e] = {a, b};
   efaces_[e] = {Face(), Face()};
-  vedges_[a].push_back(e);
-  vedges_[b].push_back(e);
+  addEdgeToVertex(a, e);
+  addEdgeToVertex(b, e);
   journalE_.push_back(e);
   return e;
 }
@@ -235,13 +242,13 @@ void SurfaceMesh::detachFace(Face f) {
   }
 }
 
-void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c) {
+void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known) {
   fverts_[f] = {a, b, c};
   journalF_.push_back(f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
-    Edge e = findEdge(x, y);
+    Edge e = known[i].isValid() ? known[i] : findEdge(x, y);
     if (!e.isValid()) e = newEdge(x, y);
     auto& ef = efaces_[e];
     if (!ef[0].isValid())
@@ -270,9 +277,11 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
   check(c, "addFace");
   if (a == b || b == c || c == a) return Face();
   const std::array<Vertex, 3> v{a, b, c};
+  std::array<Edge, 3> found{};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
     Edge e = findEdge(x, y);
+    found[i] = e;
     if (!e.isValid()) continue;
     const auto& ef = efaces_[e];
     if (ef[1].isValid()) return Face();  // would be a third face
@@ -282,7 +291,7 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
       if (ov[k] == x && ov[(k + 1) % 3] == y) return Face();
   }
   Face f = newFace();
-  attachFace(f, a, b, c);
+  attachFace(f, a, b, c, found);  // the pairs are distinct: new edges do not change `found`
   ++topologyVersion_;
   return f;
 }
@@ -299,7 +308,9 @@ void SurfaceMesh::deleteFace(Face f) {
 
 void SurfaceMesh::deleteVertex(Vertex v) {
   check(v, "deleteVertex");
-  for (Face f : faces(v)) deleteFace(f);
+  auto& around = scratch_.around;
+  facesInto(v, around);
+  for (Face f : around) deleteFace(f);
   vdeleted_[v] = true;
   ++deletedVertices_;
   journalV_.push_back(v);
@@ -324,7 +335,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   // e becomes (a, m); a new edge (m, b) inherits its properties.
   removeEdgeFromVertex(b, e);
   everts_[e] = {a, m};
-  vedges_[m].push_back(e);
+  addEdgeToVertex(m, e);
   journalE_.push_back(e);
   const Edge e2 = newEdge(m, b);
   eprops_.copyElement(e.idx(), e2.idx());
@@ -334,10 +345,20 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
     if (!fs[k].isValid()) continue;
     const auto [x, y, c] = tri[k];
     const std::array<Edge, 3> oldEdges = fedges_[fs[k]];
+    // The edges that stay are known (the face's old sides, e and e2, and the new edge
+    // (m, c) once made): no search through the valence lists of x, y and c.
+    auto oldSide = [&](Vertex p0, Vertex p1) {
+      for (Edge oe : oldEdges) {
+        const auto& ev = everts_[oe];
+        if (((ev[0] == p0 && ev[1] == p1) || (ev[0] == p1 && ev[1] == p0)) && !edeleted_[oe]) return oe;
+      }
+      return Edge();
+    };
+    const Edge cx = oldSide(c, x), yc = oldSide(y, c);
     const Face g = newFace();
     fprops_.copyElement(fs[k].idx(), g.idx());
-    attachFace(fs[k], x, m, c);
-    attachFace(g, m, y, c);
+    attachFace(fs[k], x, m, c, {x == a ? e : e2, Edge(), cx});
+    attachFace(g, m, y, c, {y == b ? e2 : e, yc, fedges_[fs[k]][1]});
     for (Edge oe : oldEdges) deleteEmptyEdge(oe);
   }
   ++topologyVersion_;
@@ -348,30 +369,40 @@ Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
   check(f, "splitFace");
   const auto [a, b, c] = fverts_[f];
   const Vertex m = addVertex(p);
+  const std::array<Edge, 3> old = fedges_[f];  // (a,b), (b,c), (c,a)
   detachFace(f);
   const Face g1 = newFace();
   const Face g2 = newFace();
   fprops_.copyElement(f.idx(), g1.idx());
   fprops_.copyElement(f.idx(), g2.idx());
-  attachFace(f, a, b, m);
-  attachFace(g1, b, c, m);
-  attachFace(g2, c, a, m);
+  // The sides are f's old edges and the spokes are made in order: nothing to search
+  // except the spokes' first lookups in m's short list.
+  attachFace(f, a, b, m, {old[0], Edge(), Edge()});
+  attachFace(g1, b, c, m, {old[1], Edge(), fedges_[f][1]});
+  attachFace(g2, c, a, m, {old[2], fedges_[f][2], fedges_[g1][1]});
   ++topologyVersion_;
   return m;
 }
 
 std::vector<Face> SurfaceMesh::faces(Vertex v) const {
   std::vector<Face> out;
+  facesInto(v, out);
+  return out;
+}
+
+// Valences are small: a linear search in a short, hot array beats a set.
+void SurfaceMesh::facesInto(Vertex v, std::vector<Face>& out) const {
+  out.clear();
   for (Edge e : vedges_[v])
     for (Face f : efaces_[e])
       if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
-  return out;
 }
 
 Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   check(v, "splitVertex");
   if (fan.empty()) return Vertex();
-  const std::vector<Face> around = faces(v);
+  std::vector<Face>& around = scratch_.around;
+  facesInto(v, around);
   for (std::size_t i = 0; i < fan.size(); ++i) {
     if (!isValid(fan[i]) || std::find(around.begin(), around.end(), fan[i]) == around.end()) return Vertex();
     for (std::size_t j = 0; j < i; ++j)
@@ -386,8 +417,10 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   journalV_.push_back(v);
   journalV_.push_back(nv);
 
-  std::vector<Edge> touched;
-  std::vector<std::array<Vertex, 3>> tris;
+  std::vector<Edge>& touched = scratch_.touched;
+  std::vector<std::array<Vertex, 3>>& tris = scratch_.tris;
+  touched.clear();
+  tris.clear();
   for (Face f : fan) {
     auto fv = fverts_[f];
     for (auto& x : fv)
@@ -415,9 +448,18 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     deleteEmptyEdge(e);
   }
   // Duplicated edges (shared with a non-fan face) inherit the original's properties.
+  // v's neighbours are listed once, so each lookup reads no edge record.
+  auto& ring = scratch_.ring;
+  ring.clear();
+  for (Edge e : vedges_[v]) ring.emplace_back(otherVertex(e, v), e);
   for (Edge e : vedges_[nv]) {
     const Vertex other = otherVertex(e, nv);
-    const Edge orig = findEdge(v, other);
+    Edge orig;
+    for (const auto& [w, we] : ring)
+      if (w == other) {
+        orig = we;
+        break;
+      }
     if (orig.isValid() && orig != e) {
       const auto keepV = everts_[e];
       const auto keepF = efaces_[e];
@@ -431,8 +473,8 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   return nv;
 }
 
-std::vector<int> SurfaceMesh::fanGroups(Vertex v, const std::vector<Face>& around, Edge ignore) const {
-  std::vector<int> group(around.size());
+void SurfaceMesh::fanGroups(Vertex v, const std::vector<Face>& around, Edge ignore, std::vector<int>& group) const {
+  group.resize(around.size());
   std::iota(group.begin(), group.end(), 0);
   auto find = [&](int i) {
     while (group[static_cast<std::size_t>(i)] != i) i = group[static_cast<std::size_t>(i)];
@@ -444,35 +486,38 @@ std::vector<int> SurfaceMesh::fanGroups(Vertex v, const std::vector<Face>& aroun
     group[static_cast<std::size_t>(find(indexOf(efaces_[ve][0])))] = find(indexOf(efaces_[ve][1]));
   }
   for (std::size_t i = 0; i < group.size(); ++i) group[i] = find(static_cast<int>(i));
-  return group;
+}
+
+// Moves the faces of f1's group around v onto a new vertex if they are not connected
+// to f0 around v (ignoring `ignore`).
+Vertex SurfaceMesh::splitOff(Vertex v, Face f0, Face f1, Edge ignore) {
+  auto& around = scratch_.sepAround;
+  auto& group = scratch_.sepGroup;
+  auto& fan = scratch_.sepFan;
+  facesInto(v, around);
+  fanGroups(v, around, ignore, group);
+  auto groupOf = [&](Face f) {
+    return group[static_cast<std::size_t>(std::find(around.begin(), around.end(), f) - around.begin())];
+  };
+  if (groupOf(f0) == groupOf(f1)) return Vertex();
+  fan.clear();
+  for (std::size_t i = 0; i < around.size(); ++i)
+    if (group[i] == groupOf(f1)) fan.push_back(around[i]);
+  return splitVertex(v, fan);
 }
 
 Edge SurfaceMesh::separateEdge(Edge e) {
   check(e, "separateEdge");
   if (isBoundary(e)) return Edge();
   const Face f0 = efaces_[e][0], f1 = efaces_[e][1];
-  // Moves the faces of f1's group around v onto a new vertex if they are not
-  // connected to f0 around v (ignoring `ignore`).
-  auto splitOff = [&](Vertex v, Edge ignore) {
-    const std::vector<Face> around = faces(v);
-    const std::vector<int> group = fanGroups(v, around, ignore);
-    auto groupOf = [&](Face f) {
-      return group[static_cast<std::size_t>(std::find(around.begin(), around.end(), f) - around.begin())];
-    };
-    if (groupOf(f0) == groupOf(f1)) return Vertex();
-    std::vector<Face> fan;
-    for (std::size_t i = 0; i < around.size(); ++i)
-      if (group[i] == groupOf(f1)) fan.push_back(around[i]);
-    return splitVertex(v, fan);
-  };
   for (int end = 0; end < 2; ++end) {
     const Vertex v = everts_[e][static_cast<std::size_t>(end)];
     const Vertex w = everts_[e][static_cast<std::size_t>(1 - end)];
-    const Vertex nv = splitOff(v, e);
+    const Vertex nv = splitOff(v, f0, f1, e);
     if (!nv.isValid()) continue;
     // The far end may now join the two sides at a single vertex: split it as well,
     // so that no vertex is shared by faces that no edge connects.
-    const Vertex nw = splitOff(w, Edge());
+    const Vertex nw = splitOff(w, f0, f1, Edge());
     return findEdge(nv, nw.isValid() ? nw : w);
   }
   return Edge();

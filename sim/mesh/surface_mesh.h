@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -293,17 +294,21 @@ class SurfaceMesh {
   void check(Face f, const char* where) const;
   Edge newEdge(Vertex a, Vertex b);
   Face newFace();
+  void addEdgeToVertex(Vertex v, Edge e);
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
-  // empty) and give it new vertices, finding or creating its edges.
+  // empty) and give it new vertices, finding or creating its edges (`known`: the
+  // edges already found for (a,b), (b,c), (c,a), invalid where not looked up).
   void detachFace(Face f);
-  void attachFace(Face f, Vertex a, Vertex b, Vertex c);
+  void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {});
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
-  [[nodiscard]] bool runsForward(Face f, Edge e) const;
-  // Per face of `around` (the faces of v): a label shared by faces connected through
-  // edges at v other than `ignore`.
-  [[nodiscard]] std::vector<int> fanGroups(Vertex v, const std::vector<Face>& around,
-                                           Edge ignore) const;  // f traverses e from vertex 0 to 1
+  [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
+  // The faces of v as faces(v) lists them, into `out` (cleared first).
+  void facesInto(Vertex v, std::vector<Face>& out) const;
+  // Per face of `around` (the faces of v): into `group`, a label shared by faces
+  // connected through edges at v other than `ignore`.
+  void fanGroups(Vertex v, const std::vector<Face>& around, Edge ignore, std::vector<int>& group) const;
+  Vertex splitOff(Vertex v, Face f0, Face f1, Edge ignore);
 
   PropertyContainer vprops_, eprops_, fprops_;
   VertexProperty<Point> points_;
@@ -322,6 +327,20 @@ class SurfaceMesh {
   std::vector<Edge> journalE_;
   std::vector<Face> journalF_;
   void newLayout();
+
+  // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
+  // edits use them), so that edits in steady state do not allocate. splitVertex and
+  // separateEdge have their own, since separateEdge passes its fan to splitVertex.
+  struct Scratch {
+    std::vector<Face> around;
+    std::vector<Edge> touched;
+    std::vector<std::array<Vertex, 3>> tris;
+    std::vector<std::pair<Vertex, Edge>> ring;
+    std::vector<Face> sepAround;
+    std::vector<int> sepGroup;
+    std::vector<Face> sepFan;
+  };
+  Scratch scratch_;
 };
 
 }  // namespace ld::mesh
