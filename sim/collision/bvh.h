@@ -87,10 +87,24 @@ class TriangleBvh {
   // True when the mesh's topology differs from what the tree last saw (cheap).
   [[nodiscard]] bool needsSync(const mesh::SurfaceMesh& m) const;
 
-  // Every box from the current positions, bottom-up: O(nodes + faces), no allocation.
+  // Every box from the current positions: one pass over the leaf blocks (each reads
+  // the distinct corners cached with it, not the mesh's connectivity) and one over
+  // the inner nodes, children before parents. O(nodes + corners), no allocation.
   void refit(const mesh::SurfaceMesh& m);
   void refitFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
+  // Only the leaves around the moved vertices and their ancestors, each once, in
+  // proportion to the region (no sort, no pass over the tree). The index overload
+  // takes a vertex index list as is (e.g. physics' awake list in active-region mode).
   void refitVertices(const mesh::SurfaceMesh& m, std::span<const mesh::Vertex> moved);
+  void refitVertices(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved);
+  // After m.garbageCollection() (which returned `c`): renumbers the tree's faces and
+  // corners through c.faceMap instead of rebuilding; faces the compaction dropped
+  // leave their leaves. Also for a copy of a tree whose mesh was copied and then cut
+  // down to one component (separation): every face not kept leaves the tree. The tree
+  // must have been in sync with the mesh before the edits that preceded the
+  // compaction; faces created since are inserted locally. Rebuilds (cheaply) when
+  // fewer than kRebuildFraction of the tracked faces survive. Returns what it did.
+  SyncResult remap(const mesh::SurfaceMesh& m, const mesh::Compaction& c);
   // Faces must be live; already tracked faces are re-read (corners) and refitted.
   void insertFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
   // Untracked faces are ignored. Faces may already be deleted in the mesh.
@@ -135,11 +149,15 @@ class TriangleBvh {
  private:
   static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
   static constexpr std::uint32_t kInner = std::numeric_limits<std::uint32_t>::max();
-  // 32 bytes, two per cache line. Inner: count == kInner, children index, index+1.
-  // Leaf: count faces (0..4) in block `index`.
-  struct Node {
-    float lo[3], hi[3];
-    std::uint32_t index, count;
+  // 32 bytes, two per cache line; lo and hi each fill one 16-byte lane group (with
+  // index and count as fourth lanes) so a refit loads and combines them whole.
+  // Inner: count == kInner, children index, index+1. Leaf: count faces (0..4) in
+  // block `index`.
+  struct alignas(32) Node {
+    float lo[3];
+    std::uint32_t index;
+    float hi[3];
+    std::uint32_t count;
     [[nodiscard]] bool leaf() const { return count != kInner; }
   };
   static Node emptyNode();
@@ -148,6 +166,12 @@ class TriangleBvh {
   };
   struct alignas(64) Block {
     TriRef tri[kLeafCapacity];
+  };
+  // The distinct corners of a block's faces (about 6 for 4 neighbouring triangles,
+  // instead of 12 corners): what a refit reads.
+  struct BlockVerts {
+    std::uint32_t n;
+    std::uint32_t v[3 * kLeafCapacity];
   };
 
   template <class NodeTest, class LeafVisit>
@@ -158,7 +182,8 @@ class TriangleBvh {
   std::uint32_t newPair(std::uint32_t parent);
   std::uint32_t newBlock(std::uint32_t leaf);
   void makeLeaf(std::uint32_t node, const std::uint32_t* faces, std::size_t count, const mesh::SurfaceMesh& m);
-  void fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i);
+  void fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i) { fitBlock(m.positions().data(), nodes_[i].index); }
+  void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
   void fitInner(std::uint32_t i);
   void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
     if (nodes_[i].leaf()) {
@@ -167,11 +192,22 @@ class TriangleBvh {
       fitInner(i);
     }
   }
+  void updateBlockVerts(std::uint32_t block);
+  void listInner();
+  // Upward refit from a set of start nodes: beginRefit(), addDirty() per node (once
+  // each; ancestors are collected and counted on the way up), finishRefit() fits
+  // every start whose children are done and climbs while a parent's last child is.
+  void beginRefit();
+  void addDirty(std::uint32_t node);
+  void finishRefit(const mesh::SurfaceMesh& m);
   [[nodiscard]] Box boxOf(std::size_t i) const;
   [[nodiscard]] std::uint32_t leafOf(mesh::Face f) const { return blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity]; }
 
   struct BuildItem;
   void buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last, std::size_t depth);
+  void buildMorton(const mesh::SurfaceMesh& m, std::uint32_t node, const std::uint64_t* keys, BuildItem* first,
+                   BuildItem* last, std::size_t depth);
+  void buildSweep(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last, std::size_t depth);
   void refitUpwards(const mesh::SurfaceMesh& m, std::vector<std::uint32_t>& dirtyLeaves);
   std::uint32_t chooseLeaf(const mesh::SurfaceMesh& m, mesh::Face f) const;
   void splitLeaf(const mesh::SurfaceMesh& m, std::uint32_t leaf, std::vector<std::uint32_t>& dirty);
@@ -188,10 +224,19 @@ class TriangleBvh {
   std::vector<Node> nodes_;
   std::vector<std::uint32_t> parent_;  // per node; kNone for the root
   std::vector<Block> blocks_;
-  std::vector<std::uint32_t> blockLeaf_;          // per block: its leaf node
-  std::vector<std::uint32_t> faceSlot_;           // per face index: block * 4 + position, or kNone
+  std::vector<std::uint32_t> blockLeaf_;  // per block: its leaf node
+  std::vector<std::uint32_t> faceSlot_;   // per face index: block * 4 + position, or kNone
+  std::vector<BlockVerts> blockVerts_;    // per block: distinct corners
+  struct alignas(16) Float4 {
+    float v[4];
+  };
+  std::vector<Float4> vertexScratch_;     // refit(): positions in float
+  std::vector<std::uint32_t> inner_;      // inner nodes of the last build, children before parents
+  std::vector<std::uint32_t> innerLate_;  // leaves split since (fitted first, highest index first)
+  bool innerLateSorted_ = true;
   std::vector<std::uint32_t> mark_;               // refitUpwards scratch: node visited in this epoch
-  std::vector<std::uint32_t> scratch_;            // refitUpwards scratch: nodes to fit
+  std::vector<std::uint8_t> pending_;             // refitUpwards scratch: children still to fit
+  std::vector<std::uint32_t> scratch_;            // refitUpwards scratch: start nodes
   std::vector<std::uint32_t> dirty_, dirtySync_;  // leaves to refit (kept to avoid allocation)
   std::vector<mesh::Face> removed_, added_;       // sync scratch
   std::vector<std::uint32_t> faceMark_;           // sync scratch: face seen in this epoch

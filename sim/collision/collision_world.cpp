@@ -69,6 +69,17 @@ void CollisionWorld::refitVertices(ObjectId id, std::span<const mesh::Vertex> mo
   e.bvh.refitVertices(*e.mesh, moved);
 }
 
+void CollisionWorld::refitVertices(ObjectId id, std::span<const std::uint32_t> moved) {
+  Entry& e = entry(id);
+  e.current();
+  e.bvh.refitVertices(*e.mesh, moved);
+}
+
+SyncResult CollisionWorld::remap(ObjectId id, const mesh::Compaction& c) {
+  Entry& e = entry(id);
+  return e.bvh.remap(*e.mesh, c);
+}
+
 void CollisionWorld::intersectSegment(const Vector3d& a, const Vector3d& b, std::vector<ObjectHit>& out) const {
   out.clear();
   std::vector<SurfaceHit> hits;

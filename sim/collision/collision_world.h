@@ -74,7 +74,11 @@ class CollisionWorld {
   void update() { sync(), refit(); }
   // Only the boxes around these vertices of one object (an active region).
   void refitVertices(ObjectId id, std::span<const mesh::Vertex> moved);
-  // Full rebuild of one object's tree (after mesh.garbageCollection()).
+  void refitVertices(ObjectId id, std::span<const std::uint32_t> moved);  // vertex indices
+  // After mesh.garbageCollection() returned `c`: the tree renumbered through c's maps
+  // (TriangleBvh::remap), no full rebuild unless most faces went.
+  SyncResult remap(ObjectId id, const mesh::Compaction& c);
+  // Full rebuild of one object's tree.
   void rebuild(ObjectId id);
 
   void intersectSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b, std::vector<ObjectHit>& out) const;

@@ -4,6 +4,7 @@
 // build. Run briefly on a shared machine, e.g.
 //   bench/collision_bench --benchmark_min_time=0.2
 //   bench/collision_bench --benchmark_filter='Query(Near|Random)'
+//   bench/collision_bench --benchmark_filter=LoopSample   (the collision side of a 1 ms sample)
 // The slab is always 158 x 158 x 5 mm (closed, two layers); Arg(n) is the number of
 // cells per side: 16 -> 1.1k, 50 -> 10k, 158 -> 100k, 500 -> 1M triangles.
 #include <benchmark/benchmark.h>
@@ -345,6 +346,166 @@ void BM_BvhEditAndSync100k(benchmark::State& st) {
       static_cast<double>(m.editedFaces().size() - journal0) / static_cast<double>(st.iterations());
 }
 BENCHMARK(BM_BvhEditAndSync100k)->Arg(0)->Arg(1)->ArgName("sync")->Unit(benchmark::kMicrosecond)->Iterations(20000);
+
+// ---- the collision side of one 1 ms loop sample --------------------------------
+// Per sample: physics has moved the vertices (all of them, or only an active region
+// of radius range(1) mm around the scalpel), the tree is refitted accordingly, then
+// the DESIGN.md instrument segments are queried: the scalpel's blade (one segment),
+// the other hand's grasper (two jaws) and the scalpel's swept test from the previous
+// sample (what the cutter needs). Only that collision work is timed (manual time);
+// the counters split it: refit_us, query_us, sweep_us per sample, and the region's
+// vertices. The scalpel cuts 2 mm deep at 100 mm/s along x; range(1) == 0 means
+// full physics (every vertex moved, full refit).
+struct LoopScene {
+  SurfaceMesh mesh;
+  std::vector<std::vector<std::uint32_t>> regions;  // per sample of the cycle
+  std::vector<ld::instruments::Pose> scalpel;
+  ld::instruments::Pose grasper;
+};
+
+constexpr std::size_t kLoopCycle = 512;
+
+LoopScene& loopScene(int cells, int radiusMm) {
+  static std::map<std::pair<int, int>, std::unique_ptr<LoopScene>> cache;
+  auto& p = cache[{cells, radiusMm}];
+  if (p) return *p;
+  p = std::make_unique<LoopScene>();
+  LoopScene& sc = *p;
+  sc.mesh = slabCells(cells);
+  for (std::size_t k = 0; k < kLoopCycle; ++k) {
+    ld::instruments::Pose pose;
+    pose.tip = Vector3d(40.0 + 0.1 * static_cast<double>(k), 79.0, -2.0);
+    pose.dir = Vector3d(0.2, 0.1, -1.0).normalized();
+    pose.up = Vector3d(1, 0, 0.2).normalized();
+    pose.up = (pose.up - pose.up.dot(pose.dir) * pose.dir).normalized();
+    sc.scalpel.push_back(pose);
+  }
+  sc.grasper.tip = Vector3d(60.0, 95.0, -1.0);
+  sc.grasper.dir = Vector3d(0.0, -0.3, -1.0).normalized();
+  sc.grasper.up = Vector3d(1, 0, 0);
+  sc.grasper.jaw = 0.5;
+  if (radiusMm > 0) {
+    // Vertices within the radius of the blade's entry point, bucketed on a grid.
+    const double r = radiusMm;
+    const double cell = r;
+    std::map<std::pair<long, long>, std::vector<std::uint32_t>> grid;
+    for (ld::mesh::Vertex v : sc.mesh.vertices()) {
+      const Vector3d& q = sc.mesh.position(v);
+      grid[{std::lround(std::floor(q.x() / cell)), std::lround(std::floor(q.y() / cell))}].push_back(
+          static_cast<std::uint32_t>(v.idx()));
+    }
+    for (std::size_t k = 0; k < kLoopCycle; ++k) {
+      const Vector3d c = sc.scalpel[k].tip;
+      std::vector<std::uint32_t> region;
+      const long gx = std::lround(std::floor(c.x() / cell)), gy = std::lround(std::floor(c.y() / cell));
+      for (long i = gx - 1; i <= gx + 1; ++i)
+        for (long j = gy - 1; j <= gy + 1; ++j) {
+          const auto it = grid.find({i, j});
+          if (it == grid.end()) continue;
+          for (std::uint32_t v : it->second)
+            if ((sc.mesh.positions()[v] - c).head<2>().norm() < r) region.push_back(v);
+        }
+      sc.regions.push_back(std::move(region));
+    }
+  }
+  return sc;
+}
+
+void BM_LoopSample(benchmark::State& st) {
+  const int cells = static_cast<int>(st.range(0));
+  const int radius = static_cast<int>(st.range(1));
+  LoopScene& sc = loopScene(cells, radius);
+  SurfaceMesh& m = sc.mesh;
+  ld::collision::CollisionWorld world;
+  const auto id = world.add(m);
+  std::size_t k = 1, regionVertices = 0;
+  double refitS = 0, queryS = 0, sweepS = 0;
+  std::size_t hits = 0;
+  using Clock = std::chrono::steady_clock;
+  for (auto _ : st) {
+    const std::size_t i = k % kLoopCycle;
+    const double d = (k & 1) ? 0.01 : -0.01;  // "physics": a small motion, back and forth
+    if (radius > 0) {
+      for (std::uint32_t v : sc.regions[i]) m.positions()[v].z() += d;
+      regionVertices += sc.regions[i].size();
+    } else {
+      for (Vector3d& p : m.positions()) p.z() += d;
+    }
+    const auto t0 = Clock::now();
+    if (radius > 0) {
+      world.refitVertices(id, std::span<const std::uint32_t>(sc.regions[i]));
+    } else {
+      world.refit();
+    }
+    const auto t1 = Clock::now();
+    const auto blade = world.query(ld::instruments::Tool::Scalpel, sc.scalpel[i]);
+    const auto jaws = world.query(ld::instruments::Tool::Grasper, sc.grasper);
+    const auto t2 = Clock::now();
+    const auto swept = world.sweep(ld::instruments::Tool::Scalpel, sc.scalpel[(k - 1) % kLoopCycle], sc.scalpel[i]);
+    const auto t3 = Clock::now();
+    for (const auto& s : blade) hits += s.hits.size();
+    for (const auto& s : jaws) hits += s.hits.size();
+    benchmark::DoNotOptimize(swept.data());
+    refitS += std::chrono::duration<double>(t1 - t0).count();
+    queryS += std::chrono::duration<double>(t2 - t1).count();
+    sweepS += std::chrono::duration<double>(t3 - t2).count();
+    st.SetIterationTime(std::chrono::duration<double>(t3 - t0).count());
+    ++k;
+  }
+  const auto n = static_cast<double>(st.iterations());
+  st.counters["triangles"] = static_cast<double>(m.nFaces());
+  st.counters["region_vertices"] = radius > 0 ? static_cast<double>(regionVertices) / n : 0.0;
+  st.counters["refit_us"] = 1e6 * refitS / n;
+  st.counters["query_us"] = 1e6 * queryS / n;
+  st.counters["sweep_us"] = 1e6 * sweepS / n;
+  st.counters["hits"] = static_cast<double>(hits) / n;
+}
+BENCHMARK(BM_LoopSample)
+    ->Args({158, 0})
+    ->Args({158, 5})
+    ->Args({158, 10})
+    ->Args({500, 0})
+    ->Args({500, 5})
+    ->Args({500, 10})
+    ->ArgNames({"cells", "region_mm"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// Separation: a 100k-triangle object loses a piece (range(0) percent of its faces,
+// a corner of the slab); after the compaction the tree is remapped (range(1) = 1)
+// or rebuilt (0). Only that is timed.
+void BM_BvhAfterCompaction100k(benchmark::State& st) {
+  const double frac = static_cast<double>(st.range(0)) / 100.0;
+  const bool remap = st.range(1) != 0;
+  double seconds = 0;
+  for (auto _ : st) {
+    SurfaceMesh m = slab100k();
+    TriangleBvh bvh(m);
+    for (ld::mesh::Face f : m.faces()) {
+      const auto& vs = m.vertices(f);
+      if (m.position(vs[0]).x() < kSide * std::sqrt(frac) && m.position(vs[0]).y() < kSide * std::sqrt(frac))
+        m.deleteFace(f);
+    }
+    const ld::mesh::Compaction c = m.garbageCollection();
+    const auto t0 = std::chrono::steady_clock::now();
+    if (remap) {
+      bvh.remap(m, c);
+    } else {
+      bvh.build(m);
+    }
+    const auto t1 = std::chrono::steady_clock::now();
+    const double dt = std::chrono::duration<double>(t1 - t0).count();
+    seconds += dt;
+    st.SetIterationTime(dt);
+  }
+}
+BENCHMARK(BM_BvhAfterCompaction100k)
+    ->Args({10, 0})
+    ->Args({10, 1})
+    ->ArgNames({"piece_pct", "remap"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
 
 }  // namespace
 

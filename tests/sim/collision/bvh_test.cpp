@@ -131,9 +131,12 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
   std::mt19937_64 rng(99);
   SegmentSource src(11);
   std::uniform_real_distribution<double> U(0.05, 0.95);
-  for (int meshKind = 0; meshKind < 3; ++meshKind) {
-    SurfaceMesh m =
-        meshKind == 0 ? testing::icosphere(2) : (meshKind == 1 ? testing::slab(6, 1.0, 2.0) : testing::grid(8));
+  // Kind 3 has more than 4096 faces: the Morton-order build (smaller ones use binned SAH).
+  for (int meshKind = 0; meshKind < 4; ++meshKind) {
+    SurfaceMesh m = meshKind == 0   ? testing::icosphere(2)
+                    : meshKind == 1 ? testing::slab(6, 1.0, 2.0)
+                    : meshKind == 2 ? testing::grid(8)
+                                    : testing::slab(34, 1.0, 2.0);
     TriangleBvh bvh(m);
     int local = 0, rebuilt = 0;
     for (int step = 0; step < testing::scaled(300); ++step) {
@@ -363,6 +366,100 @@ TEST(TriangleBvh, SyncReadsTheEditJournalLocally) {
   m.garbageCollection();
   EXPECT_EQ(bvh.sync(m), SyncResult::Rebuilt);
   EXPECT_EQ(bvh.check(m), "");
+}
+
+// The active-region refit: only the leaves around the listed vertices (given as
+// plain indices, as physics keeps them) and their ancestors are refitted.
+TEST(TriangleBvh, RegionRefitFromVertexIndices) {
+  SurfaceMesh m = testing::slab(34, 1.0, 2.0);
+  ASSERT_GT(m.nFaces(), 4096u);
+  TriangleBvh bvh(m);
+  std::vector<std::uint32_t> region;
+  for (mesh::Vertex v : m.vertices()) {
+    Vector3d& p = m.position(v);
+    if (p.z() > -0.5 && (p.head<2>() - Eigen::Vector2d(17.0, 17.0)).norm() < 4.0) {
+      p.z() += 0.7 + 0.1 * std::sin(p.x());  // lifted, as a grasper pulls
+      region.push_back(static_cast<std::uint32_t>(v.idx()));
+    }
+  }
+  ASSERT_GT(region.size(), 20u);
+  EXPECT_NE(bvh.check(m), "") << "the lift must leave the old boxes";
+  bvh.refitVertices(m, std::span<const std::uint32_t>(region));
+  EXPECT_EQ(bvh.check(m), "");
+  SegmentSource src(5);
+  expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(100));
+  // Vertical segments through the lifted patch only.
+  for (double x = 14.2; x < 20.0; x += 0.77) {
+    expectSegmentMatches(m, bvh, Vector3d(x, 17.3, 1.0), Vector3d(x, 17.3, 0.3));
+    EXPECT_FALSE(bvh.intersectSegment(m, Vector3d(x, 17.3, 1.0), Vector3d(x, 17.3, 0.3)).empty());
+  }
+  // The full refit gives the same answers and the same invariants.
+  bvh.refit(m);
+  EXPECT_EQ(bvh.check(m), "");
+  expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(50));
+}
+
+// Separation as the cutter does it: the mesh (and its tree) copied, each copy cut
+// down to one component and compacted; remap() renumbers the kept faces through the
+// compaction maps instead of rebuilding (a small piece is rebuilt: cheap).
+TEST(TriangleBvh, RemapAfterCompactionKeepsTheTree) {
+  SurfaceMesh m = testing::grid(46);  // 4232 faces: Morton-order build
+  // Cut a column of faces out: two components (x < 30 and x > 31).
+  for (Face f : m.faces()) {
+    const auto& vs = m.vertices(f);
+    const double cx = (m.position(vs[0]).x() + m.position(vs[1]).x() + m.position(vs[2]).x()) / 3.0;
+    if (cx > 30.0 && cx < 31.0) m.deleteFace(f);
+  }
+  TriangleBvh bvh(m);
+  ASSERT_EQ(bvh.sync(m), SyncResult::Unchanged);
+  const mesh::Components comp = m.connectedComponents();
+  ASSERT_EQ(comp.count, 2);
+  SurfaceMesh piece = m;
+  TriangleBvh pieceTree = bvh;
+  const auto keep = [&](SurfaceMesh& mm, int label) {
+    for (Face f : mm.faces())
+      if (comp.faceLabel[f.idx()] != label) mm.deleteFace(f);
+    for (mesh::Vertex v : mm.vertices())
+      if (mm.isIsolated(v)) mm.deleteVertex(v);
+  };
+  std::size_t n0 = 0;
+  for (Face f : m.faces()) n0 += comp.faceLabel[f.idx()] == 0 ? 1 : 0;
+  const int big = 2 * n0 > m.nFaces() ? 0 : 1;  // two thirds of the faces
+  keep(m, big);
+  // An edit the tree has not seen yet, just before the compaction.
+  Face split;
+  for (Face f : m.faces()) {
+    split = f;
+    if (f.idx() > 500) break;
+  }
+  const auto& sv = m.vertices(split);
+  m.splitFace(split, (m.position(sv[0]) + m.position(sv[1]) + m.position(sv[2])) / 3.0);
+  const mesh::Compaction c = m.garbageCollection();
+  ASSERT_TRUE(m.validate().ok());
+  EXPECT_EQ(bvh.remap(m, c), SyncResult::Local);
+  EXPECT_EQ(bvh.stats().builds, 1u) << "the parent keeps its tree";
+  EXPECT_EQ(bvh.check(m), "");
+  EXPECT_EQ(bvh.sync(m), SyncResult::Unchanged);
+  SegmentSource src(8);
+  expectBvhMatchesBruteForce(m, bvh, src, testing::scaled(150));
+
+  keep(piece, 1 - big);
+  const mesh::Compaction pc = piece.garbageCollection();
+  EXPECT_EQ(pieceTree.remap(piece, pc), SyncResult::Rebuilt) << "a third of the faces: its own tree";
+  EXPECT_EQ(pieceTree.check(piece), "");
+  expectBvhMatchesBruteForce(piece, pieceTree, src, testing::scaled(100));
+
+  // A compaction that drops little: the tree is renumbered, still exact after edits.
+  SurfaceMesh m2 = testing::slab(34, 1.0, 2.0);
+  TriangleBvh t2(m2);
+  const Face f0(100u);
+  const auto& v0 = m2.vertices(f0);
+  m2.splitFace(f0, (m2.position(v0[0]) + m2.position(v0[1]) + m2.position(v0[2])) / 3.0);
+  ASSERT_EQ(t2.sync(m2), SyncResult::Local);
+  const mesh::Compaction c2 = m2.garbageCollection();
+  EXPECT_EQ(t2.remap(m2, c2), SyncResult::Local);
+  EXPECT_EQ(t2.check(m2), "");
+  expectBvhMatchesBruteForce(m2, t2, src, testing::scaled(50));
 }
 
 }  // namespace
