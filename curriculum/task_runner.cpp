@@ -1,11 +1,18 @@
 #include "curriculum/task_runner.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <memory>
 #include <optional>
+#include <unordered_set>
+#include <utility>
 
+#include "curriculum/curriculum_error.h"
 #include "curriculum/tissue_path.h"
 #include "sim/collision/segment_triangle.h"
 #include "sim/instruments/instrument.h"
+#include "sim/physics/mass_spring.h"
 
 namespace ld::curriculum {
 namespace {
@@ -76,17 +83,239 @@ struct HandState {
   Eigen::Vector3d grasp = Eigen::Vector3d::Zero();
 };
 
+// The grasper's jaw point (the closed jaws' virtual tip) of one hand over time,
+// linear between its samples, so physics sub-steps see the jaw move smoothly.
+class JawTrack {
+ public:
+  void add(double t, const Eigen::Vector3d& p) { s_.emplace_back(t, p); }
+  [[nodiscard]] Eigen::Vector3d at(double t) const {
+    if (s_.empty()) return Eigen::Vector3d::Zero();
+    auto it = std::upper_bound(s_.begin(), s_.end(), t, [](double x, const auto& e) { return x < e.first; });
+    if (it == s_.begin()) return s_.front().second;
+    if (it == s_.end()) return s_.back().second;
+    const auto& a = *(it - 1);
+    const auto& b = *it;
+    const double u = b.first > a.first ? (t - a.first) / (b.first - a.first) : 1.0;
+    return a.second + u * (b.second - a.second);
+  }
+
+ private:
+  std::vector<std::pair<double, Eigen::Vector3d>> s_;
+};
+
+// The tissue objects under physics, and what the graspers hold: each held vertex is
+// tied to the jaw point (plus its offset when taken) by a stiff penalty spring
+// applied as the vertex's external force. The spring's stiffness is bounded by the
+// vertex's mass (kp dt² <= m) and the held vertices are made heavier by kp dt² while
+// held (selective mass scaling, as the physics' mass floor does for stiff springs),
+// so the explicit penalty force stays stable at the 1 ms step.
+class TissueMotion {
+ public:
+  TissueMotion(cutting::CutEngine& engine, const physics::TissueParams& tp, const RunOptions& opt)
+      : engine_(engine), tp_(tp), opt_(opt) {
+    params_.tissue = tp;
+  }
+
+  // Steps every object from `from` to `to` in steps of at most physicsDt.
+  void advance(double from, double to, const JawTrack* jaws, PhysicsStats& st) {
+    if (!(to > from)) return;
+    const int n = std::max(1, static_cast<int>(std::ceil((to - from) / opt_.physicsDt - 1e-9)));
+    const double h = (to - from) / n;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int j = 0; j < n; ++j) {
+      const double tj = from + (j + 1) * h;
+      for (int hand = 0; hand < 2; ++hand)
+        if (!held_[hand].empty()) applyForces(hand, jaws[hand].at(tj));
+      const std::size_t count = engine_.objects().size();
+      for (std::size_t i = 0; i < count; ++i) {
+        const int id = engine_.objects()[i].id;
+        physics::step(params_, dynamics(id), engine_.object(id).mesh, h);
+        ++st.steps;
+      }
+    }
+    st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+
+  // Closed jaws at `jaw` take hold of the object under `loc`: the vertices within
+  // graspRadius of the grasp point (at least the face's nearest vertex).
+  std::size_t hold(int hand, int object, const SurfaceLocation& loc, const Eigen::Vector3d& jaw) {
+    release(hand);
+    mesh::SurfaceMesh& m = engine_.object(object).mesh;
+    const Eigen::Vector3d p = position(m, loc);
+    std::unordered_set<mesh::Face> seen{loc.face};
+    std::vector<mesh::Face> frontier{loc.face};
+    std::unordered_set<mesh::Vertex> picked;
+    const int rings = 1 + static_cast<int>(std::ceil(opt_.graspRadius));
+    for (int r = 0; r <= rings && !frontier.empty(); ++r) {
+      std::vector<mesh::Face> next;
+      for (mesh::Face f : frontier)
+        for (mesh::Vertex v : m.vertices(f)) {
+          if ((m.position(v) - p).norm() <= opt_.graspRadius) picked.insert(v);
+          for (mesh::Face g : m.faces(v))
+            if (seen.insert(g).second) next.push_back(g);
+        }
+      frontier = std::move(next);
+    }
+    if (picked.empty()) {
+      const auto& fv = m.vertices(loc.face);
+      int k = 0;
+      for (int i = 1; i < 3; ++i)
+        if (loc.bary[i] > loc.bary[k]) k = i;
+      picked.insert(fv[static_cast<std::size_t>(k)]);
+    }
+    auto mass = m.getVertexProperty<double>(physics::kMassProp);
+    for (mesh::Vertex v : picked) {
+      held_[hand].push_back({object, v, m.position(v) - jaw, m.position(v), m.layoutVersion()});
+      mass[v] += opt_.graspStiffness * opt_.physicsDt * opt_.physicsDt;
+    }
+    dynamics(object).invalidate();
+    return picked.size();
+  }
+
+  void release(int hand) {
+    for (Held& h : held_[hand]) {
+      if (!locate(h)) continue;
+      mesh::SurfaceMesh& m = engine_.object(h.object).mesh;
+      m.getVertexProperty<Eigen::Vector3d>(physics::kForceProp)[h.v].setZero();
+      m.getVertexProperty<double>(physics::kMassProp)[h.v] = physics::lumpedMass(m, h.v, tp_);
+      dynamics(h.object).invalidate();
+    }
+    held_[hand].clear();
+  }
+
+  // The force the jaws exert on the tissue [mN] with the jaw at `jaw`.
+  Eigen::Vector3d force(int hand, const Eigen::Vector3d& jaw) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (Held& h : held_[hand])
+      if (locate(h)) sum += spring(h, jaw);
+    return sum;
+  }
+
+  void addStats(PhysicsStats& st) const {
+    for (const auto& d : dyn_) {
+      st.rejectedSteps += d.second->stability.warnings;
+      st.implicitFallbacks += d.second->stability.implicitFallbacks;
+    }
+  }
+
+ private:
+  struct Held {
+    int object;
+    mesh::Vertex v;
+    Eigen::Vector3d offset;  // from the jaw point when taken
+    Eigen::Vector3d last;    // position when last seen (finds it again after a compaction)
+    std::uint64_t layout;
+  };
+
+  physics::Dynamics& dynamics(int id) {
+    for (auto& d : dyn_)
+      if (d.first == id) return *d.second;
+    dyn_.emplace_back(id, std::make_unique<physics::Dynamics>());
+    return *dyn_.back().second;
+  }
+
+  // The held vertex in its object, found again by position after a separation
+  // compacted the mesh (it may now be on the freed piece). False when it is gone.
+  bool locate(Held& h) {
+    const mesh::SurfaceMesh& m = engine_.object(h.object).mesh;
+    if (m.layoutVersion() == h.layout) return m.isValid(h.v);
+    double best = 1e-9;
+    bool found = false;
+    for (const auto& o : engine_.objects())
+      for (mesh::Vertex v : o.mesh.vertices()) {
+        const double d = (o.mesh.position(v) - h.last).norm();
+        if (d <= best) {
+          best = d;
+          h.object = o.id;
+          h.v = v;
+          found = true;
+        }
+      }
+    h.layout = engine_.object(h.object).mesh.layoutVersion();
+    if (!found) h.v = mesh::Vertex();
+    return found;
+  }
+
+  Eigen::Vector3d spring(const Held& h, const Eigen::Vector3d& jaw) {
+    const mesh::SurfaceMesh& m = engine_.object(h.object).mesh;
+    const double mass = m.getVertexProperty<double>(physics::kMassProp)[h.v];
+    const double dt2 = opt_.physicsDt * opt_.physicsDt;
+    const double kp = std::min(opt_.graspStiffness, mass / dt2);  // a cut may have reset the mass
+    return kp * (jaw + h.offset - m.position(h.v));
+  }
+
+  void applyForces(int hand, const Eigen::Vector3d& jaw) {
+    for (Held& h : held_[hand]) {
+      if (!locate(h)) continue;
+      mesh::SurfaceMesh& m = engine_.object(h.object).mesh;
+      m.getVertexProperty<Eigen::Vector3d>(physics::kForceProp)[h.v] = spring(h, jaw);
+      h.last = m.position(h.v);
+    }
+  }
+
+  cutting::CutEngine& engine_;
+  physics::TissueParams tp_;
+  const RunOptions& opt_;
+  physics::Params params_;
+  std::vector<std::pair<int, std::unique_ptr<physics::Dynamics>>> dyn_;
+  std::vector<Held> held_[2];
+};
+
 }  // namespace
+
+physics::TissueParams tissueParams(const TissueSettings& t, const RunOptions& opt) {
+  physics::TissueParams p;
+  p.K = t.stiffness;
+  p.restRatio = t.restLengthRatio;
+  p.homeK = t.homeStiffness;
+  p.damping = t.damping;
+  p.density = t.density * 1e-6 * opt.layerMm;  // g/cm³ = 1e-6 kg/mm³, times the layer
+  p.massFloorDt = opt.physicsDt;
+  return p;
+}
+
+double balanceHomes(mesh::SurfaceMesh& m, const physics::TissueParams& p) {
+  if (!(p.homeK > 0.0)) throw CurriculumError("balanceHomes: needs a home stiffness above 0");
+  if (!physics::hasTissueProperties(m)) throw CurriculumError("balanceHomes: the mesh has no tissue properties");
+  physics::Params pp;
+  pp.tissue = p;
+  {
+    physics::Dynamics d;
+    const std::vector<Eigen::Vector3d> f = physics::forces(pp, d, m);
+    auto home = m.getVertexProperty<Eigen::Vector3d>(physics::kHomeProp);
+    for (mesh::Vertex v : m.vertices()) home[v] = m.position(v) - f[v.idx()] / p.homeK;
+  }
+  physics::recomputeMasses(m, p);  // lumped from the areas at the homes
+  physics::Dynamics d;
+  return physics::maxResidualForce(pp, d, m);
+}
 
 RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::Trajectory& tr, const RunOptions& opt) {
   RunResult r;
-  cutting::CutEngine engine(opt.cut);
-  int obj = 0;
-  {
-    mesh::SurfaceMesh tissue = m;
-    tagOriginalFaces(tissue);  // one cut-path piece per original triangle
-    obj = engine.addObject(std::move(tissue));
+  const physics::TissueParams tp = tissueParams(task.tissue, opt);
+  cutting::CutParams cutParams = opt.cut;
+  r.physics.on = opt.physics;
+  mesh::SurfaceMesh start = m;
+  tagOriginalFaces(start);  // one cut-path piece per original triangle
+  if (opt.physics) {
+    cutParams.tissue = tp;  // the cutter initialises new vertices and springs with these
+    physics::attachTissueProperties(start, tp);
+    if (tp.homeK > 0.0) {
+      r.physics.startResidualMn = balanceHomes(start, tp);
+    } else {
+      physics::Params pp;
+      pp.tissue = tp;
+      physics::Dynamics d;
+      r.physics.startResidualMn = physics::settle(pp, d, start).residual;
+    }
   }
+  cutting::CutEngine engine(cutParams);
+  const int obj = engine.addObject(std::move(start));
+  TissueMotion motion(engine, tp, opt);
+  JawTrack jaws[2];
+  for (const devices::PoseSample& s : tr.samples)
+    if (s.tool == Tool::Grasper) jaws[s.hand == Hand::Left ? 0 : 1].add(s.t, s.pose.tip);
+  double physT = tr.samples.empty() ? 0.0 : tr.samples.front().t;
   // Objects are looked up by id every time: separation may add objects.
   auto tissue = [&]() -> const mesh::SurfaceMesh& { return engine.object(obj).mesh; };
   TissuePath drawn = TissuePath::embed(tissue(), task.path, 1.0);
@@ -144,21 +373,48 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   if (!tr.samples.empty()) live.start(tr.samples.front().t);
   for (const devices::PoseSample& s : tr.samples) {
     ++r.samples;
-    HandState& hs = hands[s.hand == Hand::Left ? 0 : 1];
+    const int hand = s.hand == Hand::Left ? 0 : 1;
+    HandState& hs = hands[hand];
+    if (opt.physics && s.t > physT) {
+      motion.advance(physT, s.t, jaws, r.physics);
+      physT = s.t;
+      drawn.refreshWorld(tissue());  // the path moved with the tissue
+    }
     live.addTip({s.t, s.hand == Hand::Left ? HandSide::Left : HandSide::Right, s.pose.tip});
     if (s.tool == Tool::Grasper) {
       const bool closed = s.pose.jaw <= opt.grabJaw;
       if (closed && !hs.grasping) {
-        double d = 0.0;
-        const SurfaceLocation loc = closestLocation(tissue(), s.pose.tip, &d);
-        if (tissue().isValid(loc.face) && d <= opt.grabDistance) {
-          hs.grasping = true;
-          hs.grasp = position(tissue(), loc);
+        // The jaws close on the nearest tissue object within grabDistance.
+        double best = opt.grabDistance;
+        int bestObj = -1;
+        SurfaceLocation bestLoc;
+        for (const auto& o : engine.objects()) {
+          if (!opt.physics && o.id != obj) continue;
+          double d = 0.0;
+          const SurfaceLocation loc = closestLocation(o.mesh, s.pose.tip, &d);
+          if (o.mesh.isValid(loc.face) && d <= best) {
+            best = d;
+            bestObj = o.id;
+            bestLoc = loc;
+          }
         }
-      } else if (!closed) {
+        if (bestObj >= 0) {
+          hs.grasping = true;
+          hs.grasp = position(engine.object(bestObj).mesh, bestLoc);
+          if (opt.physics) {
+            r.physics.heldVertices += motion.hold(hand, bestObj, bestLoc, s.pose.tip);
+            ++r.physics.grasps;
+          }
+        }
+      } else if (!closed && hs.grasping) {
         hs.grasping = false;
+        if (opt.physics) motion.release(hand);
       }
-      live.addGrasp({s.t, hs.grasping ? kGrasp * (s.pose.tip - hs.grasp).norm() : 0.0, hs.grasping});
+      double force = 0.0;  // N
+      if (hs.grasping)
+        force = opt.physics ? motion.force(hand, s.pose.tip).norm() * 1e-3 : kGrasp * (s.pose.tip - hs.grasp).norm();
+      live.addGrasp({s.t, force, hs.grasping});
+      r.grasp.push_back({s.t, force, hs.grasping});
       hs.last = s;
       hs.have = true;
       continue;
@@ -219,7 +475,9 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   r.series = live.series();
   r.cutStats = engine.stats();
   r.pathGlobalSearches = drawn.globalSearches();
+  r.pathFreed = drawn.freedPoints();
   r.objects = engine.objects().size();
+  motion.addStats(r.physics);
   return r;
 }
 
@@ -258,9 +516,24 @@ nlohmann::json runJson(const Task& task, const RunResult& r) {
   j["drawn_path"] = {{"points", r.drawn.size()},
                      {"pieces", pieces(r.drawn).size()},
                      {"reembedded", r.pathReembedded},
-                     {"global_searches", r.pathGlobalSearches}};
-  // Honest about the model behind the stretch force (README: curriculum).
-  j["stretch_force"]["model"] = "estimate: home stiffness x grasper displacement (no physics in task run)";
+                     {"global_searches", r.pathGlobalSearches},
+                     {"freed", r.pathFreed}};
+  // The model behind the stretch force (README: curriculum).
+  if (r.physics.on) {
+    j["stretch_force"]["model"] = "physics";
+    j["physics"] = {{"on", true},
+                    {"steps", r.physics.steps},
+                    {"ms", r.physics.seconds * 1e3},
+                    {"us_per_step", r.physics.steps > 0 ? r.physics.seconds * 1e6 / r.physics.steps : 0.0},
+                    {"start_residual_mn", r.physics.startResidualMn},
+                    {"rejected_steps", r.physics.rejectedSteps},
+                    {"implicit_fallbacks", r.physics.implicitFallbacks},
+                    {"grasps", r.physics.grasps},
+                    {"held_vertices", r.physics.heldVertices}};
+  } else {
+    j["stretch_force"]["model"] = "estimate: home stiffness x grasper displacement (--physics off)";
+    j["physics"] = {{"on", false}};
+  }
   return j;
 }
 

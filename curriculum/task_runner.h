@@ -5,10 +5,13 @@
 // (one straight piece per original triangle, a stop at each loss of contact). The
 // drawn path is embedded in the tissue and follows the cuts (re-embedded from the
 // mesh's edit journal where its triangles are subdivided; broken where the cut
-// crosses it). Metrics are computed live, then the score. The tissue does not move
-// (no physics yet): the grasper's stretch force is an estimate (see README). The
+// crosses it). Metrics are computed live, then the score. The tissue moves under the
+// mass-spring physics (symplectic steps of at most 1 ms with the mass floor); a
+// closed grasper holds the vertices its jaws touch with stiff penalty springs, and
+// the sum of those spring forces is the grasper's stretch force (README). The
 // instant contact starts or ends between two samples is found by bisection on the
 // interpolated pose, so contact times do not depend on the sampling rate.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -20,6 +23,7 @@
 #include "devices/trajectory.h"
 #include "sim/cutting/cutter.h"
 #include "sim/mesh/surface_mesh.h"
+#include "sim/physics/tissue_properties.h"
 
 namespace ld::curriculum {
 
@@ -29,6 +33,34 @@ struct RunOptions {
   double grabJaw = 0.2;          // jaw opening at or below which the grasper is closed
   double seriesInterval = 0.05;  // s between points of the metric time series
   cutting::CutParams cut;
+  // Physics (task run --physics on, the default): the tissue is stepped while the
+  // trajectory plays and the grasper force is the sum of its penalty springs. Off:
+  // no motion, and the force is the estimate home stiffness x grasper displacement.
+  bool physics = true;
+  double physicsDt = 1e-3;         // s, the longest step (the workstation's 1 kHz loop)
+  double graspStiffness = 1000.0;  // mN/mm, penalty spring per held vertex
+  double graspRadius = 1.5;        // mm: vertices this near the grasp point are held
+  double layerMm = 5.0;            // thickness turning the task's density into an areal one
+};
+
+// The physics parameters of a task's tissue (K, rest ratio, home stiffness, damping
+// as given; areal density = density [g/cm³] x layerMm; mass floor for physicsDt).
+physics::TissueParams tissueParams(const TissueSettings& t, const RunOptions& options = {});
+
+// Sets every home so that the mesh as it is is at rest (spring forces balanced by
+// the home springs): the pre-stretched springs would otherwise pull the model away
+// from where the task's path and trajectories were authored. Needs homeK > 0 and the
+// tissue properties. Returns the largest residual force afterwards [mN].
+double balanceHomes(mesh::SurfaceMesh& m, const physics::TissueParams& p);
+
+struct PhysicsStats {
+  bool on = false;
+  long steps = 0;              // physics steps (all objects)
+  double seconds = 0.0;        // wall time in physics steps
+  double startResidualMn = 0;  // largest net force at the start (after balancing)
+  std::uint64_t rejectedSteps = 0, implicitFallbacks = 0;
+  int grasps = 0;                // times the grasper took hold
+  std::size_t heldVertices = 0;  // vertices held, summed over grasps
 };
 
 struct RunResult {
@@ -41,9 +73,12 @@ struct RunResult {
   std::size_t objects = 1;             // tissue objects at the end (separated pieces)
   std::size_t pathReembedded = 0;      // drawn-path points embedded again after edits
   std::size_t pathGlobalSearches = 0;  // of those, found by a search of the whole mesh
+  std::size_t pathFreed = 0;           // drawn-path points on pieces the cut freed
   std::vector<SeriesPoint> series;
+  std::vector<ForceSample> grasp;  // the grasper's force at each of its samples
   std::size_t samples = 0;
   std::size_t contactSamples = 0;
+  PhysicsStats physics;
 };
 
 // `m` is the task's model (already loaded). Throws PathError when the task's path

@@ -131,20 +131,12 @@ TissuePath TissuePath::embed(const SurfaceMesh& m, const Polyline& world, double
   return tp;
 }
 
-void TissuePath::startTracking(const SurfaceMesh& m) {
-  world_ = worldPoints(m);
-  byFace_.clear();
-  for (std::size_t i = 0; i < pts_.size(); ++i)
-    byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
-  layout_ = m.layoutVersion();
-  journalFaces_ = m.editedFaces().size();
-}
-
-void TissuePath::refreshWorld(const SurfaceMesh& m) {
-  for (std::size_t i = 0; i < pts_.size(); ++i) world_[i] = position(m, pts_[i].loc);
-}
-
 namespace {
+
+std::int64_t originTag(const SurfaceMesh& m, Face f) {
+  const auto prop = m.getFaceProperty<std::int64_t>(kOriginFaceProp);
+  return prop ? prop[f] : -1;
+}
 
 int faceKind(const SurfaceMesh& m, Face f) {
   // Walls the cutter adds (groove, side) share the cut's edges with the surface: a
@@ -153,36 +145,32 @@ int faceKind(const SurfaceMesh& m, Face f) {
   return kind ? kind[f] : 0;
 }
 
-}  // namespace
-
-void TissuePath::relocate(const SurfaceMesh& m, std::size_t i, std::span<const Face> edited) {
-  const Eigen::Vector3d& p = world_[i];
-  const double tol = 1e-9 * (1.0 + p.cwiseAbs().maxCoeff());
-  const Face old = pts_[i].loc.face;
+// Of the faces considered, the one holding p (within tol; the surface preferred over
+// a wall), else the nearest.
+struct Nearest {
+  const SurfaceMesh& m;
+  Eigen::Vector3d p;
+  double tol;
   SurfaceLocation best;
   double bestD2 = std::numeric_limits<double>::infinity();
   bool bestWall = true;
-  auto consider = [&](Face f) {
+  void consider(Face f) {
     if (!m.isValid(f)) return;
     double d2;
     const SurfaceLocation loc = closestIn(m, f, p, d2);
     const bool wall = faceKind(m, f) != 0;
-    const bool within = d2 <= tol * tol, bestWithin = bestD2 <= tol * tol;
-    // Among faces holding the point (within tolerance) prefer the surface, else nearest.
-    const bool better = within != bestWithin ? within
-                        : within             ? (bestWall && !wall) || (wall == bestWall && d2 < bestD2)
-                                             : d2 < bestD2;
+    const bool in = d2 <= tol * tol, bestIn = found();
+    const bool better = in != bestIn ? in : in ? (bestWall && !wall) || (wall == bestWall && d2 < bestD2) : d2 < bestD2;
     if (better) {
       best = loc;
       bestD2 = d2;
       bestWall = wall;
     }
-  };
-  if (m.isValid(old)) {
-    // The old face and the faces sharing a vertex with it, twice.
-    std::unordered_set<Face> seen{old};
-    std::vector<Face> frontier{old};
-    for (int r = 0; r <= 2 && !frontier.empty(); ++r) {
+  }
+  // The faces and those sharing a vertex with them, `rings` times.
+  void considerAround(std::vector<Face> frontier, int rings) {
+    std::unordered_set<Face> seen(frontier.begin(), frontier.end());
+    for (int r = 0; r <= rings && !frontier.empty(); ++r) {
       std::vector<Face> next;
       for (Face f : frontier) {
         consider(f);
@@ -193,32 +181,97 @@ void TissuePath::relocate(const SurfaceMesh& m, std::size_t i, std::span<const F
       frontier = std::move(next);
     }
   }
-  if (!(bestD2 <= tol * tol))
-    for (Face f : edited) consider(f);
-  if (!(bestD2 <= tol * tol)) {
+  [[nodiscard]] bool found() const { return bestD2 <= tol * tol; }
+};
+
+double tolerance(const Eigen::Vector3d& p) { return 1e-9 * (1.0 + p.cwiseAbs().maxCoeff()); }
+
+}  // namespace
+
+void TissuePath::startTracking(const SurfaceMesh& m) {
+  std::vector<Eigen::Vector3d> w(pts_.size(), Eigen::Vector3d::Zero());
+  origin_.assign(pts_.size(), -1);
+  byFace_.clear();
+  for (std::size_t i = 0; i < pts_.size(); ++i) {
+    if (pts_[i].freed) {
+      if (i < world_.size()) w[i] = world_[i];
+      continue;
+    }
+    w[i] = position(m, pts_[i].loc);
+    origin_[i] = originTag(m, pts_[i].loc.face);
+    byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
+  }
+  world_ = std::move(w);
+  layout_ = m.layoutVersion();
+  journalFaces_ = m.editedFaces().size();
+}
+
+void TissuePath::refreshWorld(const SurfaceMesh& m) {
+  for (std::size_t i = 0; i < pts_.size(); ++i)
+    if (!pts_[i].freed) world_[i] = position(m, pts_[i].loc);
+}
+
+Eigen::Vector3d TissuePath::pointAt(const SurfaceMesh& m, std::size_t i) const {
+  return pts_[i].freed ? world_[i] : position(m, pts_[i].loc);
+}
+
+std::size_t TissuePath::freedPoints() const {
+  return static_cast<std::size_t>(std::count_if(pts_.begin(), pts_.end(), [](const Point& q) { return q.freed; }));
+}
+
+void TissuePath::relocate(const SurfaceMesh& m, std::size_t i, std::span<const Face> edited) {
+  const Eigen::Vector3d& p = world_[i];
+  Nearest n{m, p, tolerance(p), {}};
+  if (m.isValid(pts_[i].loc.face)) n.considerAround({pts_[i].loc.face}, 2);  // the old face, two rings
+  if (!n.found())
+    for (Face f : edited) n.consider(f);
+  if (!n.found()) {
     ++global_;
     double d = 0.0;
     const SurfaceLocation loc = closestLocation(m, p, &d);
-    if (m.isValid(loc.face) && d * d < bestD2) best = loc;
+    if (m.isValid(loc.face) && d * d < n.bestD2) n.best = loc;
   }
-  if (!m.isValid(best.face)) throw PathError("followEdits: a path point has no face left in the mesh");
-  pts_[i].loc = best;
+  if (!m.isValid(n.best.face)) throw PathError("followEdits: a path point has no face left in the mesh");
+  pts_[i].loc = n.best;
+  origin_[i] = originTag(m, n.best.face);
+}
+
+std::size_t TissuePath::relayout(const SurfaceMesh& m) {
+  // Face indices changed (compaction; a separation compacts the mesh it keeps).
+  const auto origin = m.getFaceProperty<std::int64_t>(kOriginFaceProp);
+  std::unordered_map<std::int64_t, std::vector<Face>> byOrigin;
+  if (origin)
+    for (Face f : m.faces())
+      if (origin[f] >= 0) byOrigin[origin[f]].push_back(f);
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < pts_.size(); ++i) {
+    if (pts_[i].freed) continue;
+    ++count;
+    if (origin && origin_[i] >= 0) {
+      // The descendants of the point's original triangle (and a ring around them):
+      // the point is on one of them, or it left with a freed piece.
+      Nearest n{m, world_[i], tolerance(world_[i]), {}};
+      const auto it = byOrigin.find(origin_[i]);
+      if (it != byOrigin.end()) n.considerAround(it->second, 1);
+      if (n.found())
+        pts_[i].loc = n.best;
+      else
+        pts_[i].freed = true;
+      continue;
+    }
+    double d = 0.0;
+    pts_[i].loc = closestLocation(m, world_[i], &d);
+    if (!m.isValid(pts_[i].loc.face)) throw PathError("followEdits: the mesh has no face left");
+    ++global_;
+  }
+  const std::vector<Eigen::Vector3d> keep = world_;
+  startTracking(m);
+  world_ = keep;
+  return count;
 }
 
 std::size_t TissuePath::followEdits(const SurfaceMesh& m) {
-  if (m.layoutVersion() != layout_ || m.editedFaces().size() < journalFaces_) {
-    // Indices changed: every point is searched again (rare: separation, compaction).
-    for (std::size_t i = 0; i < pts_.size(); ++i) {
-      double d = 0.0;
-      pts_[i].loc = closestLocation(m, world_[i], &d);
-      if (!m.isValid(pts_[i].loc.face)) throw PathError("followEdits: the mesh has no face left");
-      ++global_;
-    }
-    const std::vector<Eigen::Vector3d> keep = world_;
-    startTracking(m);
-    world_ = keep;
-    return pts_.size();
-  }
+  if (m.layoutVersion() != layout_ || m.editedFaces().size() < journalFaces_) return relayout(m);
   const std::span<const Face> edited = m.editedFaces().subspan(journalFaces_);
   journalFaces_ = m.editedFaces().size();
   if (edited.empty() || byFace_.empty()) return 0;
@@ -241,27 +294,28 @@ std::size_t TissuePath::followEdits(const SurfaceMesh& m) {
 Polyline TissuePath::positions(const SurfaceMesh& m) const {
   Polyline out;
   out.reserve(pts_.size());
-  for (const Point& q : pts_) out.push_back({position(m, q.loc), q.stop || q.cut});
+  for (std::size_t i = 0; i < pts_.size(); ++i) out.push_back({pointAt(m, i), pts_[i].stop || pts_[i].cut});
   return out;
 }
 
 Polyline TissuePath::drawnPositions(const SurfaceMesh& m) const {
   Polyline out;
   out.reserve(pts_.size());
-  for (const Point& q : pts_) out.push_back({position(m, q.loc), q.stop});
+  for (std::size_t i = 0; i < pts_.size(); ++i) out.push_back({pointAt(m, i), pts_[i].stop});
   return out;
 }
 
 std::vector<Eigen::Vector3d> TissuePath::worldPoints(const SurfaceMesh& m) const {
   std::vector<Eigen::Vector3d> out;
   out.reserve(pts_.size());
-  for (const Point& q : pts_) out.push_back(position(m, q.loc));
+  for (std::size_t i = 0; i < pts_.size(); ++i) out.push_back(pointAt(m, i));
   return out;
 }
 
 void TissuePath::reembed(const SurfaceMesh& m, const std::vector<Eigen::Vector3d>& before) {
   if (before.size() != pts_.size()) throw PathError("reembed: positions do not match the path");
   for (std::size_t i = 0; i < pts_.size(); ++i) {
+    if (pts_[i].freed) continue;
     const Eigen::Vector3d& p = before[i];
     const double tol = 1e-9 * (1.0 + p.cwiseAbs().maxCoeff());
     double d = std::numeric_limits<double>::infinity();
@@ -285,6 +339,7 @@ void TissuePath::reembed(const SurfaceMesh& m, const std::vector<Eigen::Vector3d
 
 void TissuePath::remap(const mesh::Compaction& c) {
   for (Point& q : pts_) {
+    if (q.freed) continue;
     if (!q.loc.face.isValid() || q.loc.face.idx() >= c.faceMap.size())
       throw PathError("remap: a path point's face was removed");
     q.loc.face = c.faceMap[q.loc.face.idx()];
@@ -292,7 +347,7 @@ void TissuePath::remap(const mesh::Compaction& c) {
   }
   byFace_.clear();
   for (std::size_t i = 0; i < pts_.size(); ++i)
-    byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
+    if (!pts_[i].freed) byFace_[pts_[i].loc.face.idx()].push_back(static_cast<std::uint32_t>(i));
   layout_ = ~std::uint64_t{0};  // the caller's mesh has a new layout: next followEdits rebuilds
 }
 
@@ -319,10 +374,10 @@ int TissuePath::cutAcross(const SurfaceMesh& m, const Eigen::Vector3d& a, const 
   const Eigen::Vector3d lo = a.cwiseMin(b).array() - maxGap, hi = a.cwiseMax(b).array() + maxGap;
   Eigen::Vector3d prev;
   for (std::size_t i = 0; i + 1 < pts_.size(); ++i) {
-    const Eigen::Vector3d c = i == 0 ? position(m, pts_[0].loc) : prev;
-    const Eigen::Vector3d d = position(m, pts_[i + 1].loc);
+    const Eigen::Vector3d c = i == 0 ? pointAt(m, 0) : prev;
+    const Eigen::Vector3d d = pointAt(m, i + 1);
     prev = d;
-    if (pts_[i].stop) continue;
+    if (pts_[i].stop || pts_[i].freed || pts_[i + 1].freed) continue;
     if ((c.cwiseMax(d).array() < lo.array()).any() || (c.cwiseMin(d).array() > hi.array()).any()) continue;
     if (segmentsCross(a, b, c, d, n, maxGap)) {
       pts_[i].cut = true;

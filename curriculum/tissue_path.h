@@ -46,6 +46,9 @@ class TissuePath {
     SurfaceLocation loc;
     bool stop = false;  // ends a piece as drawn
     bool cut = false;   // the cut crossed the path right after this point
+    // On a piece the cut freed from this mesh: no longer embedded here; keeps the
+    // world position it had when freed (positions() report it there).
+    bool freed = false;
   };
 
   // Embeds world points; throws PathError when a point is farther than maxDistance
@@ -70,13 +73,19 @@ class TissuePath {
   // mesh's edit journal: only points whose face was edited are embedded again, at
   // the world position they had (cached), in the edited faces or the two rings
   // around their old face; the cost depends on the edit, not on the path or mesh
-  // size. A new layout (garbage collection) re-embeds every point by a global
-  // search. Call refreshWorld() after the tissue moved (physics) and before the
-  // next edit. Returns the number of points embedded again.
+  // size. A new layout (garbage collection, as a separation does) keeps every point
+  // on the descendants of its original triangle (kOriginFaceProp, which survives
+  // compaction): one pass over the faces, then a few faces per point; points whose
+  // triangle no longer holds them went with a freed piece and are marked `freed`.
+  // Without the origin tags a new layout re-embeds by a global search. Call
+  // refreshWorld() after the tissue moved (physics) and before the next edit.
+  // Returns the number of points embedded again (or freed).
   std::size_t followEdits(const mesh::SurfaceMesh& m);
   void refreshWorld(const mesh::SurfaceMesh& m);
   // Points that needed a search of the whole mesh (layout changes, lost points).
   [[nodiscard]] std::size_t globalSearches() const { return global_; }
+  // Points now on freed pieces.
+  [[nodiscard]] std::size_t freedPoints() const;
 
   // The cut moved from a to b on the surface (normal n there): every path segment it
   // crosses is broken (thesis 6.3.3). Returns the number of crossings.
@@ -86,10 +95,13 @@ class TissuePath {
  private:
   void startTracking(const mesh::SurfaceMesh& m);
   void relocate(const mesh::SurfaceMesh& m, std::size_t i, std::span<const mesh::Face> edited);
+  std::size_t relayout(const mesh::SurfaceMesh& m);
+  [[nodiscard]] Eigen::Vector3d pointAt(const mesh::SurfaceMesh& m, std::size_t i) const;
 
   std::vector<Point> pts_;
   // Edit following: cached world positions, the points of each face, the journal cursor.
   std::vector<Eigen::Vector3d> world_;
+  std::vector<std::int64_t> origin_;  // original triangle of each point's face
   std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> byFace_;
   std::uint64_t layout_ = 0;
   std::size_t journalFaces_ = 0, global_ = 0;

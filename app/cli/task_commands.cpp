@@ -1,6 +1,9 @@
 // lapdissect-cli task ...: tasks and curricula.
 //   task validate FILE
-//   task run --task JSON --trajectory CSV [--db URL --trainee NAME]   (password on stdin)
+//   task run --task JSON --trajectory CSV [--physics on|off] [--db URL --trainee NAME]   (password on stdin)
+//     --physics on (default): the tissue moves under the mass-spring physics and the
+//     grasper's stretch force is the force of its penalty springs; off: the tissue
+//     stays still and the force is the estimate home stiffness x grasper displacement.
 //   task script --task JSON --level 0..3 [--seed N] [--rate HZ] --out CSV   (scripted trainee)
 #include <chrono>
 #include <cmath>
@@ -155,6 +158,11 @@ int run(const Args& args) {
   const std::string& taskFile = args.get("task");
   const std::string& trajFile = args.get("trajectory");
   if (args.has("db") != args.has("trainee")) throw CliError(kBadInput, "--db and --trainee go together");
+  const std::string physicsMode = args.get("physics", "on");
+  if (physicsMode != "on" && physicsMode != "off")
+    throw CliError(kBadInput, "option --physics: expected 'on' or 'off', found '" + physicsMode + "'");
+  RunOptions options;
+  options.physics = physicsMode == "on";
   const auto loaded = loadTaskAndModel(taskFile);
   const Task& task = loaded.first;
   const mesh::SurfaceMesh& m = loaded.second;
@@ -172,7 +180,7 @@ int run(const Args& args) {
   }
   RunResult r;
   try {
-    r = runTask(task, m, tr);
+    r = runTask(task, m, tr, options);
   } catch (const PathError& e) {
     throw CliError(kBadInput, taskFile + ": /path: " + e.what());
   }

@@ -160,16 +160,165 @@ double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d
       }
     }
   }
-  double change = 0.0;
+  // Q's edges, clipped to the cells they pass through, join those cells' pieces.
+  g.clipped.clear();
+  g.dirty.clear();
+  for (std::size_t k = 0; k < n; ++k) clipEdge(loop[k], loop[(k + 1) % n], g);
+  for (const auto& c : g.clipped) {
+    auto& pieces = g.cells[key(c.i, c.j)].pieces;
+    auto it = std::find_if(pieces.begin(), pieces.end(),
+                           [&](const Piece& x) { return x.a == c.piece.a && x.b == c.piece.b; });
+    if (it == pieces.end()) {
+      pieces.push_back(c.piece);
+    } else if ((it->count += c.piece.count) == 0) {
+      *it = pieces.back();  // a piece and its reverse cancel
+      pieces.pop_back();
+    }
+    g.dirty.emplace_back(c.i, c.j);
+  }
   for (std::int64_t i = 0; i < nc; ++i)
     for (std::int64_t j = 0; j < nr; ++j) {
       const double dv = acc[static_cast<std::size_t>(i * nr + j)];
       if (dv == 0.0) continue;
-      double& c = g.cells[key(i0 + i, j0 + j)];
-      change += std::abs(c + dv) - std::abs(c);
-      c += dv;
+      g.cells[key(i0 + i, j0 + j)].integral += dv;
+      g.dirty.emplace_back(i0 + i, j0 + j);
     }
+  std::sort(g.dirty.begin(), g.dirty.end());
+  g.dirty.erase(std::unique(g.dirty.begin(), g.dirty.end()), g.dirty.end());
+  double change = 0.0;
+  for (const auto& [i, j] : g.dirty) {
+    Cell& c = g.cells[key(i, j)];
+    const double a = c.pieces.empty() ? std::abs(c.integral) : cellAbs(c, i, j);
+    change += a - c.abs;
+    c.abs = a;
+  }
   return change;
+}
+
+void LiveDeviation::clipEdge(const Eigen::Vector2d& p, const Eigen::Vector2d& q, PlaneGrid& g) const {
+  if (p == q) return;
+  // Canonical order, so that an edge and its reverse clip to bit-identical pieces.
+  const bool forward = p.x() < q.x() || (p.x() == q.x() && p.y() < q.y());
+  const Eigen::Vector2d a = forward ? p : q, b = forward ? q : p;
+  const int count = forward ? 1 : -1;
+  const auto cell = [&](double v) { return static_cast<std::int64_t>(std::floor(v / h_)); };
+  const auto atX = [&](double x) {
+    return Eigen::Vector2d(x, a.y() + (b.y() - a.y()) * ((x - a.x()) / (b.x() - a.x())));
+  };
+  const auto atY = [&](double y) {
+    return Eigen::Vector2d(a.x() + (b.x() - a.x()) * ((y - a.y()) / (b.y() - a.y())), y);
+  };
+  for (std::int64_t i = cell(a.x()); i <= cell(b.x()); ++i) {
+    const double xl = static_cast<double>(i) * h_, xr = static_cast<double>(i + 1) * h_;
+    const Eigen::Vector2d s0 = a.x() < xl ? atX(xl) : a, s1 = b.x() > xr ? atX(xr) : b;
+    if (a.x() != b.x() && !(s1.x() > s0.x())) continue;  // touches the column at a point
+    const double ylo = std::min(s0.y(), s1.y()), yhi = std::max(s0.y(), s1.y());
+    for (std::int64_t j = cell(ylo); j <= cell(yhi); ++j) {
+      const double yb = static_cast<double>(j) * h_, yt = static_cast<double>(j + 1) * h_;
+      const auto clampY = [&](const Eigen::Vector2d& s) { return s.y() < yb ? atY(yb) : s.y() > yt ? atY(yt) : s; };
+      const Eigen::Vector2d c0 = clampY(s0), c1 = clampY(s1);
+      if (c0 == c1) continue;
+      // A piece on the cell's border changes w inside by a constant only (the
+      // integral fixes it): left out.
+      if ((c0.x() == xl && c1.x() == xl) || (c0.x() == xr && c1.x() == xr) || (c0.y() == yb && c1.y() == yb) ||
+          (c0.y() == yt && c1.y() == yt))
+        continue;
+      g.clipped.push_back({i, j, {c0, c1, count}});
+    }
+  }
+}
+
+double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) const {
+  // The pieces, closed along the cell's border: every end on the border runs back
+  // along it to the corner (xa, ya). Inside the cell w then is this closed set's
+  // winding number plus a whole number B, which the cell's integral gives.
+  const double xa = static_cast<double>(i) * h_, xb = xa + h_, ya = static_cast<double>(j) * h_, yb = ya + h_;
+  const Eigen::Vector2d corner[4] = {{xa, ya}, {xb, ya}, {xb, yb}, {xa, yb}};
+  struct WSeg {
+    Eigen::Vector2d a, b;
+    int w;
+  };
+  std::vector<WSeg> segs;
+  segs.reserve(c.pieces.size() * 4);
+  const auto onBorder = [&](const Eigen::Vector2d& p) {
+    return p.y() == ya || p.x() == xb || p.y() == yb || p.x() == xa;
+  };
+  const auto toCorner = [&](const Eigen::Vector2d& p, int w) {
+    // Counter-clockwise border parameter from corner 0, then back down to 0.
+    const double s = p.y() == ya   ? p.x() - xa
+                     : p.x() == xb ? h_ + (p.y() - ya)
+                     : p.y() == yb ? 2 * h_ + (xb - p.x())
+                                   : 3 * h_ + (yb - p.y());
+    Eigen::Vector2d cur = p;
+    for (int k = 3; k >= 1; --k)
+      if (s > k * h_) {
+        segs.push_back({cur, corner[k], w});
+        cur = corner[k];
+      }
+    segs.push_back({cur, corner[0], w});
+  };
+  for (const Piece& pc : c.pieces) {
+    segs.push_back({pc.a, pc.b, pc.count});
+    if (onBorder(pc.b)) toCorner(pc.b, pc.count);
+    if (onBorder(pc.a)) toCorner(pc.a, -pc.count);
+  }
+  // ∫ w of the closed set (shoelace about the corner), then B.
+  double twice = 0.0;
+  for (const WSeg& s : segs) {
+    const Eigen::Vector2d u = s.a - corner[0], v = s.b - corner[0];
+    twice += s.w * (u.x() * v.y() - u.y() * v.x());
+  }
+  const double base = std::round((c.integral - 0.5 * twice) / (h_ * h_));
+  // Slab sweep (as absWindingArea): between neighbouring edges w is constant.
+  std::vector<double> xs{xa, xb};
+  for (const WSeg& s : segs) {
+    xs.push_back(std::clamp(s.a.x(), xa, xb));
+    xs.push_back(std::clamp(s.b.x(), xa, xb));
+  }
+  for (std::size_t m = 0; m < segs.size(); ++m)
+    for (std::size_t k = m + 1; k < segs.size(); ++k) {
+      const Eigen::Vector2d r = segs[m].b - segs[m].a, t = segs[k].b - segs[k].a;
+      const double den = r.x() * t.y() - r.y() * t.x();
+      if (den == 0.0) continue;
+      const Eigen::Vector2d d = segs[k].a - segs[m].a;
+      const double u = (d.x() * t.y() - d.y() * t.x()) / den, v = (d.x() * r.y() - d.y() * r.x()) / den;
+      if (u <= 0.0 || u >= 1.0 || v <= 0.0 || v >= 1.0) continue;
+      xs.push_back(std::clamp(segs[m].a.x() + u * r.x(), xa, xb));
+    }
+  std::sort(xs.begin(), xs.end());
+  xs.erase(std::unique(xs.begin(), xs.end()), xs.end());
+  struct Slot {
+    double ym, y0, y1;
+    int w;
+  };
+  std::vector<Slot> slots;
+  double area = 0.0;
+  for (std::size_t k = 0; k + 1 < xs.size(); ++k) {
+    const double x0 = xs[k], x1 = xs[k + 1];
+    if (!(x1 > x0)) continue;
+    slots.clear();
+    for (const WSeg& s : segs) {
+      if (s.a.x() == s.b.x()) continue;
+      const bool right = s.a.x() < s.b.x();
+      const Eigen::Vector2d& lo = right ? s.a : s.b;
+      const Eigen::Vector2d& hi = right ? s.b : s.a;
+      if (lo.x() > x0 || hi.x() < x1) continue;
+      const auto yAt = [&](double x) { return lo.y() + (hi.y() - lo.y()) * ((x - lo.x()) / (hi.x() - lo.x())); };
+      const double y0 = yAt(x0), y1 = yAt(x1);
+      slots.push_back({0.5 * (y0 + y1), y0, y1, right ? s.w : -s.w});
+    }
+    std::sort(slots.begin(), slots.end(), [](const Slot& p, const Slot& q) { return p.ym < q.ym; });
+    double w = base, y0 = ya, y1 = ya, sum = 0.0;
+    for (const Slot& s : slots) {
+      sum += std::abs(w) * ((s.y0 - y0) + (s.y1 - y1));
+      w += s.w;
+      y0 = s.y0;
+      y1 = s.y1;
+    }
+    sum += std::abs(w) * ((yb - y0) + (yb - y1));
+    area += 0.5 * sum * (x1 - x0);
+  }
+  return area;
 }
 
 // ---------------------------------------------------------------------------

@@ -9,10 +9,14 @@
 // cut point, the old one), so the winding number field changes by w_Q only on Q's
 // support. Each plane keeps the field on a grid of square cells (kCellMm) as the exact
 // signed integral of w per cell (Q's share of each cell comes from its edges in closed
-// form); the live value is the sum of |cell integral|, updated for the cells Q covers.
-// The cost per cut point depends on Q's size only, never on the attempt's length. The
-// value is exact where w keeps one sign inside a cell; cells where the cut crosses the
-// drawn path (both signs inside) under-count a little. finish() closes the loop; the
+// form). A cell no edge of the loop passes through has one w: its share is |integral|.
+// A cell the loop passes through also keeps the loop's pieces inside it (each edge of
+// Q clipped to the cell; a piece and its reverse cancel, so only the loop's current
+// edges stay): closed along the cell's border, they give w inside the cell up to a
+// whole number, which the cell integral fixes, and ∫|w| over the cell follows exactly
+// by the slab sweep of deviation.cpp. So the live value is exact also where the cut
+// crosses the drawn path. The cost per cut point depends on Q's size and the few
+// pieces per cell only, never on the attempt's length. finish() closes the loop; the
 // batch value (deviation()) is what LiveMetrics reports at the end.
 #include <cstdint>
 #include <unordered_map>
@@ -40,10 +44,29 @@ class LiveDeviation {
   [[nodiscard]] const Eigen::Vector3d& progressPoint() const { return p_; }
 
  private:
-  struct PlaneGrid {
-    std::unordered_map<std::int64_t, double> cells;  // signed integral of w per cell
-    std::vector<double> scratch;
+  // A piece of the loop inside a cell, end points in canonical (lexicographic) order;
+  // `count` is how many times the loop runs a -> b (negative: b -> a).
+  struct Piece {
+    Eigen::Vector2d a, b;
+    int count = 0;
   };
+  struct Cell {
+    double integral = 0.0;  // signed integral of w over the cell
+    double abs = 0.0;       // ∫|w| over the cell (its share of the value)
+    std::vector<Piece> pieces;
+  };
+  struct PlaneGrid {
+    std::unordered_map<std::int64_t, Cell> cells;
+    std::vector<double> scratch;
+    struct Clipped {
+      std::int64_t i, j;
+      Piece piece;
+    };
+    std::vector<Clipped> clipped;  // scratch: Q's pieces per cell
+    std::vector<std::pair<std::int64_t, std::int64_t>> dirty;
+  };
+  void clipEdge(const Eigen::Vector2d& p, const Eigen::Vector2d& q, PlaneGrid& g) const;
+  [[nodiscard]] double cellAbs(const Cell& c, std::int64_t i, std::int64_t j) const;
   void addPolygon(const std::vector<Eigen::Vector3d>& poly);
   double addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d>& loop);
   Eigen::Vector3d closestAhead(const Eigen::Vector3d& p, std::size_t& seg, double& u) const;
