@@ -153,6 +153,9 @@ struct Cache {
   std::vector<std::uint32_t> edgeSlot;  // edge index → index in springs (or ~0)
   std::vector<double> vertexStiffness;  // Σ k of the springs at each vertex
   std::vector<std::uint32_t> first, other;
+  // The CSR springs' ends as offsets into the position array (3 × vertex index), with 8
+  // zero entries past the end, read by the vector kernels (spring_kernel.h).
+  std::vector<std::int32_t> lower3, other3;
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
   // Two threads: vertices [0, splitVertex) and [splitVertex, n); `cross` lists the

@@ -17,6 +17,7 @@
 #include "sim/io/mesh_io.h"
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/scenes.h"
+#include "sim/physics/spring_kernel.h"
 #include "tests/sim/cutting/cut_test_meshes.h"
 
 namespace ld::physics {
@@ -74,12 +75,30 @@ void BM_Rk4(benchmark::State& bs) { runSteps(bs, Method::Rk4, false, 1); }
 void BM_ImplicitEuler(benchmark::State& bs) { runSteps(bs, Method::ImplicitEuler, false, 1); }
 void BM_Xpbd(benchmark::State& bs) { runSteps(bs, Method::Xpbd, false, 1); }  // 4 Gauss–Seidel sweeps
 
+// The symplectic step (no monitor) on each compiled kernel path: range(1) = 0 scalar,
+// 1 AVX2+FMA, 2 AVX-512 (skipped where the CPU lacks it); range(2) = threads.
+void BM_SymplecticKernel(benchmark::State& bs) {
+  const auto kern = static_cast<detail::Kernel>(bs.range(1));
+  if (!detail::forceKernel(kern)) {
+    bs.SkipWithError("kernel not supported on this CPU");
+    return;
+  }
+  runSteps(bs, Method::SymplecticEuler, false, static_cast<int>(bs.range(2)));
+  detail::forceKernel(std::nullopt);
+  bs.SetLabel(std::string(detail::kernelName(kern)));
+}
+
 #define LD_SMALL ->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMicrosecond)->MinTime(0.1)
 #define LD_SIZES LD_SMALL->Arg(1000000)
 BENCHMARK(BM_Symplectic) LD_SIZES;
 BENCHMARK(BM_Symplectic2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticMonitored) LD_SIZES;
 BENCHMARK(BM_SymplecticMonitored2Threads) LD_SIZES->UseRealTime();
+BENCHMARK(BM_SymplecticKernel)
+    ->ArgsProduct({{10000, 100000}, {0, 1, 2}, {1, 2}})
+    ->Unit(benchmark::kMicrosecond)
+    ->MinTime(0.1)
+    ->UseRealTime();
 BENCHMARK(BM_ExplicitEuler) LD_SIZES;
 BENCHMARK(BM_Verlet) LD_SIZES;
 BENCHMARK(BM_Rk4) LD_SMALL;

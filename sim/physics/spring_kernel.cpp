@@ -1,0 +1,364 @@
+#include "sim/physics/spring_kernel.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#if defined(__GNUC__) && !defined(__clang__)
+// GCC 12's intrinsic headers self-initialise "undefined" vectors (gather, permute),
+// which -Wuninitialized reports at every inlined use; the warning is about the header.
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#include <immintrin.h>
+#define LD_X86_KERNELS 1
+// Built for these ISAs whatever the compile flags (no -march): chosen at run time.
+#define LD_AVX2 __attribute__((target("avx2,fma")))
+#define LD_AVX512 __attribute__((target("avx512f,avx512vl,avx2,fma")))
+#endif
+
+namespace ld::physics::detail {
+
+// ---- portable reference ------------------------------------------------------
+
+namespace {
+
+double springForcesScalar(const SpringChunk& c) {
+  double pe = 0.0;
+  for (std::size_t t = 0; t < c.m; ++t) {
+    const double* xi = c.x + c.lo3[t];
+    const double* xj = c.x + c.oth3[t];
+    const double dx = xj[0] - xi[0], dy = xj[1] - xi[1], dz = xj[2] - xi[2];
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double st = l - c.rest[t];
+    const double kst = c.k[t] * st;
+    pe += kst * st;
+    const double q = l > 0.0 ? kst / l : 0.0;
+    c.gx[t] = q * dx;
+    c.gy[t] = q * dy;
+    c.gz[t] = q * dz;
+  }
+  return pe;
+}
+
+void finishScalar(const FinishChunk& c, FinishSums& s) {
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0;
+  for (std::size_t t = 0; t < c.nv; ++t) {
+    const double im = c.invMass[t], m = c.mass[t];
+    const bool live = im != 0.0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const std::size_t b = 3 * t + a;
+      const double h = c.x0[b] - c.home[b];
+      const double acc = (c.f[b] + c.ext[b]) - c.homeK * h;
+      const double u = live ? c.damp * c.v0[b] + c.dt * (im * acc + c.g[a]) : 0.0;
+      const double e = c.dt * u;
+      const double p = c.x0[b] + e;
+      c.v1[b] = u;
+      c.x1[b] = p;
+      const double uu = u * u;
+      ke1 += m * uu;
+      v2 += uu;
+      maxc = std::max(maxc, uu);
+      work += (c.ext[b] + m * c.g[a]) * e;
+      if (live) home1 += (p - c.home[b]) * (p - c.home[b]);
+    }
+  }
+  s.ke1 += ke1;
+  s.home1 += home1;
+  s.v2 += v2;
+  s.work += work;
+  s.maxComp2 = std::max(s.maxComp2, maxc);
+}
+
+// ---- AVX2 + FMA: 4 lanes ------------------------------------------------------
+
+#ifdef LD_X86_KERNELS
+
+LD_AVX2 inline double hsum(__m256d v) {
+  const __m128d s = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
+}
+LD_AVX2 inline double hmax(__m256d v) {
+  const __m128d s = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+  return _mm_cvtsd_f64(_mm_max_sd(s, _mm_unpackhi_pd(s, s)));
+}
+
+LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256i lanes = _mm256_setr_epi64x(0, 1, 2, 3);
+  const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+  __m256d pe = zero;
+  for (std::size_t t = 0; t < c.m; t += 4) {
+    // Lanes past m: indices are padded (valid), rest and k load as 0, nothing stored.
+    const __m256i mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(c.m - t)), lanes);
+    // Difference vectors (x, y, z, 0) of 4 springs, transposed (loads and shuffles
+    // rather than gathers, as in the AVX-512 path).
+    __m256d d[4];
+    for (std::size_t u = 0; u < 4; ++u)
+      d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x + c.oth3[t + u], xyz), _mm256_maskload_pd(c.x + c.lo3[t + u], xyz));
+    const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
+    const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
+    const __m256d dx = _mm256_permute2f128_pd(t0, t2, 0x20);
+    const __m256d dy = _mm256_permute2f128_pd(t1, t3, 0x20);
+    const __m256d dz = _mm256_permute2f128_pd(t0, t2, 0x31);
+    const __m256d l2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_mul_pd(dx, dx)));
+    const __m256d l = _mm256_sqrt_pd(l2);
+    const __m256d st = _mm256_sub_pd(l, _mm256_maskload_pd(c.rest + t, mask));
+    const __m256d kst = _mm256_mul_pd(_mm256_maskload_pd(c.k + t, mask), st);
+    pe = _mm256_fmadd_pd(kst, st, pe);
+    const __m256d q = _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, zero, _CMP_GT_OQ));
+    _mm256_maskstore_pd(c.gx + t, mask, _mm256_mul_pd(q, dx));
+    _mm256_maskstore_pd(c.gy + t, mask, _mm256_mul_pd(q, dy));
+    _mm256_maskstore_pd(c.gz + t, mask, _mm256_mul_pd(q, dz));
+  }
+  return hsum(pe);
+}
+
+struct Acc2 {
+  __m256d ke, home, v2, work, maxc;
+};
+
+// Four vertices (12 doubles, 3 registers) from arrays that hold all of them.
+LD_AVX2 inline void finish4(const FinishChunk& c, const double* f, const double* x0, const double* v0,
+                            const double* home, const double* ext, const double* im, const double* mass, double* x1,
+                            double* v1, const __m256d* grav, Acc2& acc) {
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
+  const __m256d imv = _mm256_loadu_pd(im), mv = _mm256_loadu_pd(mass);
+  const __m256d im3[3] = {_mm256_permute4x64_pd(imv, 0x40), _mm256_permute4x64_pd(imv, 0xA5),
+                          _mm256_permute4x64_pd(imv, 0xFE)};
+  const __m256d m3[3] = {_mm256_permute4x64_pd(mv, 0x40), _mm256_permute4x64_pd(mv, 0xA5),
+                         _mm256_permute4x64_pd(mv, 0xFE)};
+  for (int r = 0; r < 3; ++r) {
+    const __m256d live = _mm256_cmp_pd(im3[r], zero, _CMP_NEQ_OQ);
+    const __m256d X = _mm256_loadu_pd(x0 + 4 * r), H = _mm256_loadu_pd(home + 4 * r);
+    const __m256d E = _mm256_loadu_pd(ext + 4 * r);
+    const __m256d a = _mm256_fnmadd_pd(homeK, _mm256_sub_pd(X, H), _mm256_add_pd(_mm256_loadu_pd(f + 4 * r), E));
+    const __m256d u = _mm256_and_pd(live, _mm256_fmadd_pd(damp, _mm256_loadu_pd(v0 + 4 * r),
+                                                          _mm256_mul_pd(dt, _mm256_fmadd_pd(im3[r], a, grav[r]))));
+    const __m256d e = _mm256_mul_pd(dt, u);
+    const __m256d p = _mm256_add_pd(X, e);
+    _mm256_storeu_pd(v1 + 4 * r, u);
+    _mm256_storeu_pd(x1 + 4 * r, p);
+    const __m256d uu = _mm256_mul_pd(u, u);
+    acc.ke = _mm256_fmadd_pd(m3[r], uu, acc.ke);
+    acc.v2 = _mm256_add_pd(acc.v2, uu);
+    acc.maxc = _mm256_max_pd(acc.maxc, uu);
+    acc.work = _mm256_fmadd_pd(_mm256_fmadd_pd(m3[r], grav[r], E), e, acc.work);
+    const __m256d qh = _mm256_and_pd(live, _mm256_sub_pd(p, H));
+    acc.home = _mm256_fmadd_pd(qh, qh, acc.home);
+  }
+}
+
+LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
+  const __m256d zero = _mm256_setzero_pd();
+  Acc2 acc{zero, zero, zero, zero, zero};
+  const __m256d grav[3] = {_mm256_setr_pd(c.g[0], c.g[1], c.g[2], c.g[0]),
+                           _mm256_setr_pd(c.g[1], c.g[2], c.g[0], c.g[1]),
+                           _mm256_setr_pd(c.g[2], c.g[0], c.g[1], c.g[2])};
+  std::size_t t = 0;
+  for (; t + 4 <= c.nv; t += 4) {
+    const std::size_t b = 3 * t;
+    finish4(c, c.f + b, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t, c.x1 + b, c.v1 + b, grav,
+            acc);
+  }
+  if (t < c.nv) {
+    // The last 1–3 vertices through the same lanes, padded with massless zeros.
+    const std::size_t rem = c.nv - t, b = 3 * t;
+    double buf[7][12] = {}, im[4] = {}, mass[4] = {};
+    const double* src[5] = {c.f + b, c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
+    for (int a = 0; a < 5; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
+    std::copy(c.invMass + t, c.invMass + t + rem, im);
+    std::copy(c.mass + t, c.mass + t + rem, mass);
+    finish4(c, buf[0], buf[1], buf[2], buf[3], buf[4], im, mass, buf[5], buf[6], grav, acc);
+    std::copy(buf[5], buf[5] + 3 * rem, c.x1 + b);
+    std::copy(buf[6], buf[6] + 3 * rem, c.v1 + b);
+  }
+  s.ke1 += hsum(acc.ke);
+  s.home1 += hsum(acc.home);
+  s.v2 += hsum(acc.v2);
+  s.work += hsum(acc.work);
+  s.maxComp2 = std::max(s.maxComp2, hmax(acc.maxc));
+}
+
+// ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
+
+LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
+  const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5), threeHalves = _mm512_set1_pd(1.5);
+  __m512d pe = zero;
+  for (std::size_t t = 0; t < c.m; t += 8) {
+    const std::size_t rem = c.m - t;
+    const __mmask8 mk = rem >= 8 ? __mmask8(0xFF) : __mmask8((1u << rem) - 1u);
+    // Difference vectors (x, y, z, 0) of the 8 springs, transposed to x, y and z
+    // registers: 16 three-lane loads and 11 shuffles beat 6 gathers (slow on many
+    // CPUs, ~12 cycles each here).
+    __m512d p[4];
+    for (int u = 0; u < 4; ++u) {
+      const std::size_t a = t + 2 * static_cast<std::size_t>(u), b = a + 1;
+      const __m256d d0 =
+          _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + c.oth3[a]), _mm256_maskz_loadu_pd(0x7, c.x + c.lo3[a]));
+      const __m256d d1 =
+          _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + c.oth3[b]), _mm256_maskz_loadu_pd(0x7, c.x + c.lo3[b]));
+      p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d0), d1, 1);
+    }
+    const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
+    const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
+    const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
+    const __m512d dx = _mm512_shuffle_f64x2(xyLo, xyHi, 0x44);
+    const __m512d dy = _mm512_shuffle_f64x2(xyLo, xyHi, 0xEE);
+    const __m512d dz = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
+    const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
+    const __mmask8 pos = _mm512_cmp_pd_mask(l2, zero, _CMP_GT_OQ);
+    // 1/l: 14-bit estimate, two Newton steps (error ~2⁻²⁸, then below rounding).
+    __m512d r = _mm512_rsqrt14_pd(l2);
+    const __m512d hl = _mm512_mul_pd(half, l2);
+    r = _mm512_mul_pd(r, _mm512_fnmadd_pd(_mm512_mul_pd(hl, r), r, threeHalves));
+    r = _mm512_mul_pd(r, _mm512_fnmadd_pd(_mm512_mul_pd(hl, r), r, threeHalves));
+    const __m512d l = _mm512_maskz_mul_pd(pos, l2, r);
+    const __m512d st = _mm512_sub_pd(l, _mm512_maskz_loadu_pd(mk, c.rest + t));
+    const __m512d kst = _mm512_mul_pd(_mm512_maskz_loadu_pd(mk, c.k + t), st);
+    pe = _mm512_fmadd_pd(kst, st, pe);
+    const __m512d q = _mm512_maskz_mul_pd(pos, kst, r);
+    _mm512_mask_storeu_pd(c.gx + t, mk, _mm512_mul_pd(q, dx));
+    _mm512_mask_storeu_pd(c.gy + t, mk, _mm512_mul_pd(q, dy));
+    _mm512_mask_storeu_pd(c.gz + t, mk, _mm512_mul_pd(q, dz));
+  }
+  return _mm512_reduce_add_pd(pe);
+}
+
+LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512d dt = _mm512_set1_pd(c.dt), damp = _mm512_set1_pd(c.damp), homeK = _mm512_set1_pd(c.homeK);
+  const double g0 = c.g[0], g1 = c.g[1], g2 = c.g[2];
+  const __m512d grav[3] = {_mm512_setr_pd(g0, g1, g2, g0, g1, g2, g0, g1),
+                           _mm512_setr_pd(g2, g0, g1, g2, g0, g1, g2, g0),
+                           _mm512_setr_pd(g1, g2, g0, g1, g2, g0, g1, g2)};
+  // Register r of 8 vertices holds components 8r … 8r+7: vertex (8r + lane) / 3.
+  const __m512i spread[3] = {_mm512_setr_epi64(0, 0, 0, 1, 1, 1, 2, 2), _mm512_setr_epi64(2, 3, 3, 3, 4, 4, 4, 5),
+                             _mm512_setr_epi64(5, 5, 6, 6, 6, 7, 7, 7)};
+  __m512d ke = zero, home = zero, v2 = zero, work = zero, maxc = zero;
+  for (std::size_t t = 0; t < c.nv; t += 8) {
+    const std::size_t rem = std::min<std::size_t>(8, c.nv - t), comps = 3 * rem, b = 3 * t;
+    const __mmask8 vm = __mmask8((1u << rem) - 1u);
+    const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+    for (std::size_t r = 0; r < 3; ++r) {
+      const std::size_t lo = 8 * r;
+      const std::size_t cnt = comps > lo ? std::min<std::size_t>(8, comps - lo) : 0;
+      const __mmask8 mk = __mmask8((1u << cnt) - 1u);
+      const std::size_t o = b + lo;
+      const __m512d im3 = _mm512_permutexvar_pd(spread[r], imv), m3 = _mm512_permutexvar_pd(spread[r], mv);
+      const __mmask8 live = _mm512_cmp_pd_mask(im3, zero, _CMP_NEQ_OQ);
+      const __m512d X = _mm512_maskz_loadu_pd(mk, c.x0 + o), H = _mm512_maskz_loadu_pd(mk, c.home + o);
+      const __m512d E = _mm512_maskz_loadu_pd(mk, c.ext + o);
+      const __m512d a =
+          _mm512_fnmadd_pd(homeK, _mm512_sub_pd(X, H), _mm512_add_pd(_mm512_maskz_loadu_pd(mk, c.f + o), E));
+      const __m512d u = _mm512_maskz_fmadd_pd(live, damp, _mm512_maskz_loadu_pd(mk, c.v0 + o),
+                                              _mm512_mul_pd(dt, _mm512_fmadd_pd(im3, a, grav[r])));
+      const __m512d e = _mm512_mul_pd(dt, u);
+      const __m512d p = _mm512_add_pd(X, e);
+      _mm512_mask_storeu_pd(c.v1 + o, mk, u);
+      _mm512_mask_storeu_pd(c.x1 + o, mk, p);
+      const __m512d uu = _mm512_mul_pd(u, u);
+      ke = _mm512_fmadd_pd(m3, uu, ke);
+      v2 = _mm512_add_pd(v2, uu);
+      maxc = _mm512_max_pd(maxc, uu);
+      work = _mm512_fmadd_pd(_mm512_fmadd_pd(m3, grav[r], E), e, work);
+      const __m512d qh = _mm512_maskz_sub_pd(live, p, H);
+      home = _mm512_fmadd_pd(qh, qh, home);
+    }
+  }
+  s.ke1 += _mm512_reduce_add_pd(ke);
+  s.home1 += _mm512_reduce_add_pd(home);
+  s.v2 += _mm512_reduce_add_pd(v2);
+  s.work += _mm512_reduce_add_pd(work);
+  s.maxComp2 = std::max(s.maxComp2, _mm512_reduce_max_pd(maxc));
+}
+
+#endif  // LD_X86_KERNELS
+
+bool cpuSupports(Kernel k) {
+  switch (k) {
+    case Kernel::Scalar:
+      return true;
+#ifdef LD_X86_KERNELS
+    case Kernel::Avx2:
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Kernel::Avx512:
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+    default:
+      return false;
+#endif
+  }
+  return false;
+}
+
+Kernel bestKernel() {
+  static const Kernel best = cpuSupports(Kernel::Avx512) ? Kernel::Avx512
+                             : cpuSupports(Kernel::Avx2) ? Kernel::Avx2
+                                                         : Kernel::Scalar;
+  return best;
+}
+
+std::atomic<int> gForced{-1};
+
+}  // namespace
+
+std::string_view kernelName(Kernel k) {
+  switch (k) {
+    case Kernel::Scalar:
+      return "scalar";
+    case Kernel::Avx2:
+      return "avx2";
+    case Kernel::Avx512:
+      return "avx512";
+  }
+  return "?";
+}
+
+bool kernelSupported(Kernel k) { return cpuSupports(k); }
+
+Kernel activeKernel() {
+  const int f = gForced.load(std::memory_order_relaxed);
+  return f >= 0 ? static_cast<Kernel>(f) : bestKernel();
+}
+
+bool forceKernel(std::optional<Kernel> k) {
+  if (k && !kernelSupported(*k)) return false;
+  gForced.store(k ? static_cast<int>(*k) : -1, std::memory_order_relaxed);
+  return true;
+}
+
+double springForces(Kernel kern, const SpringChunk& c) {
+  switch (kern) {
+#ifdef LD_X86_KERNELS
+    case Kernel::Avx512:
+      return springForcesAvx512(c);
+    case Kernel::Avx2:
+      return springForcesAvx2(c);
+#endif
+    default:
+      return springForcesScalar(c);
+  }
+}
+
+void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s) {
+  switch (kern) {
+#ifdef LD_X86_KERNELS
+    case Kernel::Avx512:
+      finishAvx512(c, s);
+      return;
+    case Kernel::Avx2:
+      finishAvx2(c, s);
+      return;
+#endif
+    default:
+      finishScalar(c, s);
+  }
+}
+
+}  // namespace ld::physics::detail

@@ -1,0 +1,61 @@
+#pragma once
+// The symplectic step's inner loops (internal to sim/physics), in three builds chosen
+// at run time: portable scalar code, AVX2+FMA (4 springs or vertices a lane group)
+// and AVX-512 (8). All are double precision. Every lane computes the same operations
+// whatever the group it falls in (tails are masked or padded, never done by a
+// different scalar loop), so a spring's or a vertex's result does not depend on where
+// a chunk starts: the two-thread step stays bit-identical to one thread on each path.
+// Paths differ from each other in the last bits (fused multiply-add; the AVX-512 path
+// takes 1/l from rsqrt14 and two Newton steps, within about two ulp).
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+namespace ld::physics::detail {
+
+enum class Kernel { Scalar, Avx2, Avx512 };
+
+[[nodiscard]] std::string_view kernelName(Kernel k);
+// Compiled in and supported by this CPU.
+[[nodiscard]] bool kernelSupported(Kernel k);
+// The path the step uses: the best supported one unless a test forced another.
+[[nodiscard]] Kernel activeKernel();
+// For tests and benchmarks: force a path (nullopt = automatic). Returns false (and
+// changes nothing) when the path is not supported here.
+bool forceKernel(std::optional<Kernel> k);
+
+// Springs of one chunk: t in [0, m). Index arrays hold 3 × vertex index (the offset of
+// the vertex's x in the position array) and have room for 8 more entries past m.
+struct SpringChunk {
+  const double* x = nullptr;
+  const std::int32_t* lo3 = nullptr;   // lower vertex
+  const std::int32_t* oth3 = nullptr;  // other vertex
+  const double* rest = nullptr;
+  const double* k = nullptr;
+  double *gx = nullptr, *gy = nullptr, *gz = nullptr;  // out: k(l − rest)/l · (x_j − x_i)
+  std::size_t m = 0;
+};
+// Returns Σ k (l − rest)² over the chunk (twice the energy).
+double springForces(Kernel kern, const SpringChunk& c);
+
+// Integration of nv consecutive vertices (pointers already at the chunk's first
+// vertex; vectors 3 doubles a vertex): v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext −
+// homeK·(x0 − home)) + g)), x1 = x0 + dt·v1, live = (im ≠ 0).
+struct FinishChunk {
+  const double *f = nullptr, *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
+  const double *invMass = nullptr, *mass = nullptr;  // one per vertex
+  double *x1 = nullptr, *v1 = nullptr;
+  std::size_t nv = 0;
+  double dt = 0, damp = 1, homeK = 0;
+  double g[3] = {0, 0, 0};
+};
+// Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
+// Σ |v1|², Σ (ext + m·g)·(x1 − x0), and the largest squared velocity component
+// (3 × it bounds the largest |v1|²).
+struct FinishSums {
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0;
+};
+void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s);
+
+}  // namespace ld::physics::detail
