@@ -154,7 +154,11 @@ struct Track {
   // A face around tip holding the pending point (checked first on the next sample:
   // while the blade stays in it, a sample costs one point-in-triangle test).
   Face pendingFace;
-  int partner = -1;   // track id of the other layer of a cut-through, or -1
+  int partner = -1;  // track id of the other layer of a cut-through, or -1
+  // Paired with a layer the blade went through in the middle of the object (a groove
+  // that got deeper, or a pierce through both): the paths grow closed until both can
+  // open, then openTunnel joins the layers (side walls; the object gets a hole).
+  bool tunnel = false;
   VertexSet visited;  // path vertices, their copies and this cut's wall apexes
 };
 
@@ -550,6 +554,14 @@ struct CutEngine::Impl {
       tr.tip = N;
       tr.tipDepth = depthN;
     };
+    if (tr.tunnel) {
+      // Nothing opens until both layers have a path that can (two edges each).
+      tr.chain.insert(tr.chain.begin(), v);
+      tr.tip = N;
+      tr.tipDepth = depthN;
+      if (P && P->tunnel && tunnelReady(tr) && tunnelReady(*P)) openTunnel(tr, *P);
+      return true;
+    }
     if (tr.chain.empty()) {
       if (P && P->tip == v) P->chain = {N};
       advanceTo({v});
@@ -868,6 +880,182 @@ struct CutEngine::Impl {
     return true;
   }
 
+  // ---- groove to cut-through: the tunnel ------------------------------------------------------
+  static bool tunnelReady(const Track& t) { return t.tip.isValid() && t.chain.size() >= 2; }
+
+  // Boundary loop through `start`, in the direction a face closing it must run: for
+  // each consecutive pair (a, b) the face already on edge (a, b) runs b -> a.
+  static std::vector<Vertex> orientedLoop(const SurfaceMesh& m, Vertex start, std::size_t maxLen) {
+    std::vector<Vertex> loop{start};
+    Vertex cur = start;
+    for (;;) {
+      Vertex next;
+      for (Edge e : m.edges(cur)) {
+        if (!m.isBoundary(e)) continue;
+        const Vertex o = m.otherVertex(e, cur);
+        const Face f = m.face(e, 0);
+        const int k = m.localIndex(f, o);
+        if (k >= 0 && m.vertices(f)[static_cast<std::size_t>((k + 1) % 3)] == cur) {
+          next = o;
+          break;
+        }
+      }
+      if (!next.isValid()) return {};
+      if (next == start) return loop;
+      loop.push_back(next);
+      cur = next;
+      if (loop.size() > maxLen) return {};
+    }
+  }
+
+  // Triangles joining polyline P (run forward by the new faces) to polyline Q (run
+  // backward), from rung (P0, Q0) to rung (Pn, Qm): the strip whose thinnest triangle
+  // is thickest (dynamic programming over the rungs). `rungOk` rejects a rung.
+  template <class RungOk>
+  static double strip(const SurfaceMesh& m, const std::vector<Vertex>& P, const std::vector<Vertex>& Q, RungOk&& rungOk,
+                      std::vector<std::array<Vertex, 3>>& out) {
+    const std::size_t n = P.size(), k = Q.size();
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<double> best(n * k, -inf);
+    std::vector<char> from(n * k, 0);  // 1: came by advancing P, 2: by advancing Q
+    auto at = [&](std::size_t i, std::size_t j) -> double& { return best[i * k + j]; };
+    at(0, 0) = inf;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j < k; ++j) {
+        if ((i || j) && !rungOk(i, j)) continue;
+        if (i > 0 && at(i - 1, j) > -inf) {
+          const double q = std::min(at(i - 1, j), height(m.position(P[i - 1]), m.position(P[i]), m.position(Q[j])));
+          if (q > at(i, j)) {
+            at(i, j) = q;
+            from[i * k + j] = 1;
+          }
+        }
+        if (j > 0 && at(i, j - 1) > -inf) {
+          const double q = std::min(at(i, j - 1), height(m.position(P[i]), m.position(Q[j]), m.position(Q[j - 1])));
+          if (q > at(i, j)) {
+            at(i, j) = q;
+            from[i * k + j] = 2;
+          }
+        }
+      }
+    out.clear();
+    if (!(at(n - 1, k - 1) > -inf)) return -inf;
+    for (std::size_t i = n - 1, j = k - 1; i || j;) {
+      if (from[i * k + j] == 1) {
+        out.push_back({P[i - 1], P[i], Q[j]});
+        --i;
+      } else {
+        out.push_back({P[i], Q[j], Q[j - 1]});
+        --j;
+      }
+    }
+    return at(n - 1, k - 1);
+  }
+
+  // Both layers of a cut through the middle of the object have a closed path of two
+  // edges or more (A: tip, chain... ending at the groove front or the pierce point; B
+  // likewise on the other layer). Opens both paths (their inner vertices split in
+  // two) and joins the two openings with side walls: a strip on each side from the
+  // front rung (A tip, B tip) to the back rung (A's chain end, B's chain end). The
+  // object gets its hole here; from now on the pair goes on as an ordinary cut-through.
+  bool openTunnel(Track& A, Track& B) {
+    const int obj = A.object;
+    SurfaceMesh& m = meshOf(obj);
+    std::vector<Vertex> pa{A.tip}, pb{B.tip};
+    pa.insert(pa.end(), A.chain.begin(), A.chain.end());
+    pb.insert(pb.end(), B.chain.begin(), B.chain.end());
+    const Vertex fa = pa.front(), ba = pa.back(), fb = pb.front(), bb = pb.back();
+    for (Vertex x : pa)
+      if (std::find(pb.begin(), pb.end(), x) != pb.end()) return false;
+    if (m.findEdge(fa, fb).isValid() || m.findEdge(ba, bb).isValid()) return false;
+    // Every inner vertex must open into exactly two sides along the path.
+    for (const auto* path : {&pa, &pb})
+      for (std::size_t i = 1; i + 1 < path->size(); ++i) {
+        const Vertex x = (*path)[i];
+        const Edge e0 = m.findEdge(x, (*path)[i - 1]), e1 = m.findEdge(x, (*path)[i + 1]);
+        if (!e0.isValid() || !e1.isValid() || m.isBoundary(e0) || m.isBoundary(e1)) return false;
+        if (fanGroups(m, x, {e0, e1}).size() != 2) return false;
+      }
+    {
+      // The walls will have the paths' shape (the copies sit on the originals): wait
+      // for a later step while they would be thinner than walls may be.
+      std::vector<std::array<Vertex, 3>> tris;
+      const double q = strip(
+          m, pa, pb,
+          [&](std::size_t i, std::size_t j) {
+            const bool endP = i == 0 || i + 1 == pa.size(), endQ = j == 0 || j + 1 == pb.size();
+            if (endP && endQ) return (i == 0) == (j == 0);
+            return !m.findEdge(pa[i], pb[j]).isValid();
+          },
+          tris);
+      if (!(q >= 0.5 * p.snapDistance)) return false;
+    }
+    std::vector<Vertex> touched;
+    for (const auto* path : {&pa, &pb})
+      for (std::size_t i = 1; i + 1 < path->size(); ++i) {
+        const Vertex x = (*path)[i];
+        std::vector<Edge> cuts;
+        for (const Vertex y : {(*path)[i - 1], (*path)[i + 1]})
+          if (const Edge e = m.findEdge(x, y); e.isValid()) cuts.push_back(e);
+        touched.push_back(x);
+        for (Vertex c : splitByGroups(obj, x, cuts)) {
+          mark(A, c);
+          touched.push_back(c);
+        }
+      }
+    const std::vector<Vertex> la = orientedLoop(m, fa, 4 * pa.size() + 8);
+    const std::vector<Vertex> lb = orientedLoop(m, fb, 4 * pb.size() + 8);
+    const auto ia = std::find(la.begin(), la.end(), ba), ib = std::find(lb.begin(), lb.end(), bb);
+    bool ok = !la.empty() && !lb.empty() && ia != la.end() && ib != lb.end();
+    std::vector<Face> added;
+    if (ok) {
+      // Strip 1: A's loop from its tip to its back end, against B's loop run backward
+      // from its tip; strip 2: the other halves, back end to tip.
+      std::vector<Vertex> P1(la.begin(), ia + 1), P2(ia, la.end());
+      P2.push_back(fa);
+      std::vector<Vertex> Q1{fb}, Q2(lb.begin(), ib + 1);
+      Q1.insert(Q1.end(), lb.rbegin(), std::make_reverse_iterator(ib));
+      std::reverse(Q2.begin(), Q2.end());
+      std::vector<std::array<Vertex, 3>> tris, more;
+      auto rungOk = [&](const std::vector<Vertex>& P, const std::vector<Vertex>& Q) {
+        return [&](std::size_t i, std::size_t j) {
+          const bool endP = i == 0 || i + 1 == P.size(), endQ = j == 0 || j + 1 == Q.size();
+          if (endP && endQ) return (i == 0) == (j == 0);  // only the two designated end rungs
+          return !m.findEdge(P[i], Q[j]).isValid();
+        };
+      };
+      const double q1 = strip(m, P1, Q1, rungOk(P1, Q1), tris);
+      const double q2 = strip(m, P2, Q2, rungOk(P2, Q2), more);
+      tris.insert(tris.end(), more.begin(), more.end());
+      ok = q1 > -std::numeric_limits<double>::infinity() && q2 > -std::numeric_limits<double>::infinity();
+      for (std::size_t t = 0; ok && t < tris.size(); ++t) {
+        const Face f = m.addFace(tris[t][0], tris[t][1], tris[t][2]);
+        if (!f.isValid()) {
+          ok = false;
+          break;
+        }
+        m.faceProperty<int>(kFaceKindProp, kSurface)[f] = kSideWall;
+        added.push_back(f);
+      }
+    }
+    if (!ok) {
+      // Should not happen on a manifold mesh: close each opening on its own.
+      for (Face f : added) m.deleteFace(f);
+      ++stats.fillFailures;
+      fillHoleAt(obj, fa, kGrooveWall);
+      fillHoleAt(obj, fb, kGrooveWall);
+    }
+    A.tunnel = B.tunnel = false;
+    A.chain = {fb};
+    B.chain = {fa};
+    touched.insert(touched.end(), {fa, ba, fb, bb});
+    for (Vertex x : touched) touch(obj, {x});
+    for (Vertex x : touched) unpinch(obj, x);
+    if (sliverTrace())
+      for (Vertex x : touched) traceThin(obj, {x}, "tunnel");
+    return ok;
+  }
+
   // ---- walking along the sweep plane ------------------------------------------------------
   struct WalkGoal {
     bool toVertex = false;
@@ -1107,7 +1295,7 @@ struct CutEngine::Impl {
 
   // The blade left this layer: the temporary point becomes permanent and the cut ends.
   // On a sheet (open mesh, no walls) a blade that moved on over the rim cuts out to it.
-  void terminate(Track& tr, const Vec3& motion = Vec3::Zero(), const Vec3& blade = Vec3::Zero()) {
+  void terminate(Track& tr, const Vec3& motion = Vec3::Zero(), const Vec3& blade = Vec3::Zero(), bool unpair = true) {
     if (!tr.alive) return;
     if (dbg()) std::cerr << "terminate track " << tr.id << " pending " << tr.pending.transpose() << "\n";
     if (!tr.tip.isValid() && tr.hasStart) commitStart(tr);
@@ -1145,13 +1333,30 @@ struct CutEngine::Impl {
         }
       }
     }
-    end(tr);
+    if (unpair) {
+      end(tr);
+    } else {
+      tr.hasPending = false;  // the partner ends it after its own last step
+    }
+  }
+
+  // The hand lifted (or stopped cutting): every cut ends where it is; a pair stays a
+  // pair until both layers made their last step (side walls to the end).
+  void terminateAll(HandState& hs) {
+    for (auto& t : hs.tracks)
+      if (t.alive) terminate(t, Vec3::Zero(), Vec3::Zero(), false);
+    for (auto& t : hs.tracks)
+      if (t.alive) end(t);
+    hs.tracks.clear();
   }
 
   void end(Track& tr) {
     tr.alive = false;
     tr.hasPending = false;
-    if (Track* P = trackById(tr.partner)) P->partner = -1;
+    if (Track* P = trackById(tr.partner)) {
+      P->partner = -1;
+      P->tunnel = false;  // goes on as a groove: its closed path opens as one
+    }
     tr.partner = -1;
   }
 
@@ -1189,8 +1394,10 @@ struct CutEngine::Impl {
       end(B);
       return;
     }
-    terminate(A);
+    // Both end here: A's last step keeps the pair (B's last step makes side walls too).
+    terminate(A, Vec3::Zero(), Vec3::Zero(), false);
     terminate(B);
+    end(A);
   }
 
   // The cut-out path (A's tip ... a neighbour of B's tip) and the front (A's tip,
@@ -1315,9 +1522,8 @@ struct CutEngine::Impl {
     if (dbg()) std::cerr << "startPair at " << h0.point.transpose() << " / " << h1.point.transpose() << "\n";
     const Vec3 motion = motionIn;
     if (motion.norm() < 1e-9) {
-      // The blade appeared inside (first sample): not a slide-in.
-      startSingle(hs, h0);
-      startSingle(hs, h1);
+      // The blade appeared inside (first sample): a pierce through both layers.
+      startTunnel(hs, h0, h1);
       return;
     }
     (void)upDir;
@@ -1375,8 +1581,39 @@ struct CutEngine::Impl {
       for (Vertex x : path) extend(a, x, h0.depth);
       return;
     }
-    startSingle(hs, h0);
-    startSingle(hs, h1);
+    // No edge the blade came in over (e.g. it went in along itself): a pierce.
+    startTunnel(hs, h0, h1);
+  }
+
+  // Two layers pierced in the middle of the object: each gets its own track; they
+  // are paired and join through a tunnel once both paths can open.
+  void startTunnel(HandState& hs, const Hit& h0, const Hit& h1) {
+    if (dbg()) std::cerr << "startTunnel at " << h0.point.transpose() << " / " << h1.point.transpose() << "\n";
+    if ((h0.point - h1.point).norm() < 2.0 * p.snapDistance) {
+      // Grazing a fold (no material between the crossings to speak of).
+      startSingle(hs, h0);
+      startSingle(hs, h1);
+      return;
+    }
+    Track A = newTrack(h0), B = newTrack(h1);
+    A.partner = B.id;
+    B.partner = A.id;
+    A.tunnel = B.tunnel = true;
+    hs.tracks.push_back(std::move(A));
+    hs.tracks.push_back(std::move(B));
+  }
+
+  // A groove (track t) whose blade now also crosses the layer below (new hit h): the
+  // cut turns into a cut-through from here on.
+  void deepen(HandState& hs, std::size_t ti, const Hit& h) {
+    if (dbg()) std::cerr << "deepen track " << hs.tracks[ti].id << " through " << h.point.transpose() << "\n";
+    Track B = newTrack(h);
+    B.partner = hs.tracks[ti].id;
+    B.tunnel = true;
+    hs.tracks[ti].partner = B.id;
+    hs.tracks[ti].tunnel = true;
+    B.visited = hs.tracks[ti].visited;
+    hs.tracks.push_back(std::move(B));
   }
 
   Track newTrack(const Hit& h) {
@@ -1644,8 +1881,7 @@ struct CutEngine::Impl {
       if (cuts && sg.role == instruments::SegmentRole::CuttingEdge) hits.insert(hits.end(), h.begin(), h.end());
     }
     if (!cuts) {
-      for (auto& t : hs.tracks) terminate(t);
-      hs.tracks.clear();
+      terminateAll(hs);
       return;
     }
     std::vector<instruments::Segment> prevSegs;
@@ -1725,11 +1961,31 @@ struct CutEngine::Impl {
       }
       debugScan("terminate");
     }
-    // New crossings start cuts: two with material between them on a closed object
-    // make a slide-in through both layers, others a pierce-in.
+    // New crossings start cuts: one next to a groove's crossing with material between
+    // them deepens the groove into a cut-through; two with material between them on a
+    // closed object make a slide-in through both layers; others a pierce-in.
+    std::vector<int> trackOfHit(hits.size(), -1);
+    for (std::size_t ti = 0; ti < nTracks; ++ti)
+      if (matchOf[ti] >= 0) trackOfHit[static_cast<std::size_t>(matchOf[ti])] = static_cast<int>(ti);
     for (std::size_t i = 0; i < hits.size(); ++i) {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
+      if (closedObject(h.object)) {
+        int groove = -1;
+        for (const std::size_t nb : {i - 1, i + 1}) {
+          if (nb >= hits.size()) continue;  // i - 1 wraps for i = 0
+          const Hit& o = hits[nb];
+          if (o.object != h.object || o.segment != h.segment || trackOfHit[nb] < 0) continue;
+          const bool between = nb < i ? (o.dir > 0 && h.dir < 0) : (h.dir > 0 && o.dir < 0);
+          const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
+          if (between && t.alive && t.partner < 0 && !t.tunnel) groove = trackOfHit[nb];
+        }
+        if (groove >= 0) {
+          hits[i].used = true;
+          deepen(hs, static_cast<std::size_t>(groove), h);
+          continue;
+        }
+      }
       std::size_t j = i + 1;
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
           hits[j].dir < 0 && closedObject(h.object)) {
@@ -1863,8 +2119,7 @@ StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
   HandState& hs = I.hands[handIndex(hand)];
   return I.run([&] {
     if (hs.hasPrev && hs.tool != tool) {
-      for (auto& t : hs.tracks) I.terminate(t);
-      hs.tracks.clear();
+      I.terminateAll(hs);
       hs.hasPrev = false;
     }
     if (!hs.hasPrev) {
@@ -1894,8 +2149,7 @@ StepResult CutEngine::endStroke(Hand hand) {
   HandState& hs = I.hands[handIndex(hand)];
   return I.run([&] {
     CpuTimer timer{I.stats.remeshSeconds};
-    for (auto& t : hs.tracks) I.terminate(t);
-    hs.tracks.clear();
+    I.terminateAll(hs);
     hs.hasPrev = false;
     I.fixPinches();
   });

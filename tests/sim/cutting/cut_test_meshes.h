@@ -155,4 +155,74 @@ inline void stroke(CutEngine& e, const Vec3& a, const Vec3& b, const Vec3& dir, 
   stroke(e, a, b, dir, speed, hz, [](CutEngine&) {});
 }
 
+// Stroke of the tip along a polyline (e.g. deeper and deeper) at `speed` mm/s sampled
+// at `hz`; the blade's sharp side faces the motion in the xy plane.
+template <class Check>
+void polyStroke(CutEngine& e, const std::vector<Vec3>& pts, const Vec3& dir, double speed, double hz, Check&& check,
+                instruments::Tool tool = instruments::Tool::Scalpel) {
+  for (std::size_t k = 0; k + 1 < pts.size(); ++k) {
+    const Vec3 a = pts[k], b = pts[k + 1];
+    const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / speed * hz)));
+    Vec3 up = b - a;
+    up.z() = 0.0;
+    if (up.norm() < 1e-9) up = Vec3(1, 0, 0);
+    for (int i = (k == 0 ? 0 : 1); i <= n; ++i) {
+      auto pose = scalpel(a + (b - a) * (static_cast<double>(i) / n), dir, up.normalized());
+      pose.pedal = true;
+      e.step(instruments::Hand::Right, tool, pose);
+      check(e);
+    }
+  }
+  e.endStroke(instruments::Hand::Right);
+  check(e);
+}
+
+// V - E + F: 2 for a closed surface without holes, 0 with one hole through it.
+inline long eulerCharacteristic(const mesh::SurfaceMesh& m) {
+  return static_cast<long>(m.nVertices()) - static_cast<long>(m.nEdges()) + static_cast<long>(m.nFaces());
+}
+
+// Pairs of triangles on the same three points facing the same way: a doubled
+// surface (membrane). The two walls of a fresh cut coincide too, but face each other.
+inline int coincidentTrianglePairs(const mesh::SurfaceMesh& m) {
+  std::map<std::array<std::tuple<long, long, long>, 3>, std::vector<Vec3>> seen;
+  int pairs = 0;
+  for (auto f : m.faces()) {
+    std::array<std::tuple<long, long, long>, 3> key;
+    for (int i = 0; i < 3; ++i) {
+      const Vec3 p = m.position(m.vertices(f)[static_cast<std::size_t>(i)]) * 1e6;
+      key[static_cast<std::size_t>(i)] = {std::lround(p.x()), std::lround(p.y()), std::lround(p.z())};
+    }
+    std::sort(key.begin(), key.end());
+    auto& normals = seen[key];
+    const Vec3 n = m.faceNormal(f);
+    for (const Vec3& o : normals) pairs += o.dot(n) > 0.0 ? 1 : 0;
+    normals.push_back(n);
+  }
+  return pairs;
+}
+
+// Total area of the faces of one kind (face property kFaceKindProp).
+inline double areaOfKind(const mesh::SurfaceMesh& m, int kind) {
+  auto prop = m.getFaceProperty<int>(kFaceKindProp);
+  double a = 0.0;
+  for (auto f : m.faces())
+    if (prop[f] == kind) a += m.faceArea(f);
+  return a;
+}
+
+// Edges where a surface face facing -z (the bottom layer) meets a side wall: the
+// bottom is open there.
+inline int bottomEdgesOnSideWalls(const mesh::SurfaceMesh& m) {
+  auto prop = m.getFaceProperty<int>(kFaceKindProp);
+  int n = 0;
+  for (auto e : m.edges()) {
+    const auto f0 = m.face(e, 0), f1 = m.face(e, 1);
+    if (!f1.isValid()) continue;
+    for (auto [s, w] : {std::pair{f0, f1}, std::pair{f1, f0}})
+      if (prop[s] == kSurface && prop[w] == kSideWall && m.faceNormal(s).z() < -0.99) ++n;
+  }
+  return n;
+}
+
 }  // namespace ld::cutting::test
