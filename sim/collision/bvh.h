@@ -231,6 +231,7 @@ class TriangleBvh {
     float v[4];
   };
   std::vector<Float4> vertexScratch_;     // refit(): positions in float
+  std::vector<double> sweepArea_;         // build scratch
   std::vector<std::uint32_t> inner_;      // inner nodes of the last build, children before parents
   std::vector<std::uint32_t> innerLate_;  // leaves split since (fitted first, highest index first)
   bool innerLateSorted_ = true;

@@ -115,6 +115,10 @@ void BM_FirstHitNear(benchmark::State& st) {
     found += bvh.firstHit(m, a, b, h) ? 1 : 0;
   }
   st.counters["found"] = static_cast<double>(found) / static_cast<double>(st.iterations());
+  ld::collision::QueryCounters qc;
+  for (const auto& [a, b] : segs) bvh.firstHit(m, a, b, h, &qc);
+  st.counters["boxes_per_query"] = static_cast<double>(qc.nodes) / 1024.0;
+  st.counters["tris_per_query"] = static_cast<double>(qc.faces) / 1024.0;
 }
 BENCHMARK(BM_FirstHitNear)->Arg(158)->ArgName("cells")->Unit(benchmark::kMicrosecond);
 
