@@ -2,6 +2,9 @@
 // Small scenes shared by the physics tests.
 #include <cmath>
 #include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
 
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/scenes.h"
@@ -53,6 +56,35 @@ inline double maxDiff(const std::vector<Eigen::Vector3d>& a, const std::vector<E
   double d = 0;
   for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
   return d;
+}
+
+// Random local edits with the physics hooks, as the cutter makes them.
+inline void randomEdits(mesh::SurfaceMesh& m, const TissueParams& tp, std::mt19937& rng, int count) {
+  for (int k = 0; k < count; ++k) {
+    const int kind = static_cast<int>(rng() % 3);
+    if (kind == 0) {
+      const mesh::Face f(static_cast<int>(rng() % m.facesSize()));
+      if (!m.isValid(f)) continue;
+      const auto vs = m.vertices(f);
+      const auto v = m.splitFace(f, m.centroid(f));
+      initVertexInFace(m, v, vs[0], vs[1], vs[2], Eigen::Vector3d::Constant(1.0 / 3.0), tp);
+      for (mesh::Edge e : m.edges(v)) initEdge(m, e, tp);
+    } else if (kind == 1) {
+      const mesh::Edge e(static_cast<int>(rng() % m.edgesSize()));
+      if (!m.isValid(e)) continue;
+      const auto a = m.vertex(e, 0), b = m.vertex(e, 1);
+      const auto v = m.splitEdge(e, 0.5 * (m.position(a) + m.position(b)));
+      initVertexOnEdge(m, v, a, b, 0.5, tp);
+      for (mesh::Edge e2 : m.edges(v)) initEdge(m, e2, tp);
+    } else {
+      const mesh::Face f(static_cast<int>(rng() % m.facesSize()));
+      if (!m.isValid(f)) continue;
+      const auto vs = m.vertices(f);
+      m.deleteFace(f);
+      redistributeMass(m, vs, tp);
+    }
+  }
+  ASSERT_TRUE(m.validate().ok()) << m.validate().message();
 }
 
 }  // namespace ld::physics::testutil

@@ -1,0 +1,195 @@
+// The vectorised symplectic kernels (spring_kernel.h) against the portable scalar
+// path: on a mesh after local edits (irregular valence, deleted faces, appended
+// vertices, springs added since the last rebuild), with gravity, external forces and
+// motion, every compiled path gives the scalar result to rounding, one and two threads
+// agree bit for bit on each path, and the monitor's decisions are the same.
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "sim/physics/mass_spring.h"
+#include "sim/physics/scenes.h"
+#include "sim/physics/spring_kernel.h"
+#include "tests/sim/physics/physics_test_util.h"
+
+namespace ld::physics {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using detail::Kernel;
+
+// Restores automatic dispatch when a test ends.
+struct ForcedKernel {
+  explicit ForcedKernel(Kernel k) { ok = detail::forceKernel(k); }
+  ~ForcedKernel() { detail::forceKernel(std::nullopt); }
+  ForcedKernel(const ForcedKernel&) = delete;
+  ForcedKernel& operator=(const ForcedKernel&) = delete;
+  bool ok = false;
+};
+
+std::vector<Kernel> compiledKernels() {
+  std::vector<Kernel> out;
+  for (Kernel k : {Kernel::Scalar, Kernel::Avx2, Kernel::Avx512})
+    if (detail::kernelSupported(k)) out.push_back(k);
+  return out;
+}
+
+// A 50 x 50 grid (2601 vertices: the two-thread split applies) cut up by local edits
+// after its cache was built, pushed, moving, with gravity and a few external forces.
+// Filled in place: moving a State is a new layout (its cache would be rebuilt).
+void editedScene(Params& p, State& s) {
+  p.tissue.gravity = Vec3(0.0, -2.0, -9810.0);
+  s = makeState(makeGrid(50, 50, 4.0), p.tissue);
+  s.mesh.position(nearestVertex(s.mesh, Vec3(100, 100, 0))).z() -= 5.0;
+  step(p, s, 1e-4);  // the cache exists: the edits below go through the journal
+  std::mt19937 rng(5);
+  testutil::randomEdits(s.mesh, p.tissue, rng, 60);  // under the rebuild threshold
+  auto& v = s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
+  auto& ext = s.mesh.getVertexProperty<Vec3>(kForceProp).vector();
+  std::uniform_real_distribution<double> u(-20.0, 20.0);
+  for (mesh::Vertex vx : s.mesh.vertices()) {
+    v[vx.idx()] = Vec3(u(rng), u(rng), u(rng));
+    if (vx.idx() % 97 == 0) ext[vx.idx()] = Vec3(u(rng), u(rng), 3.0 * u(rng));
+  }
+}
+
+double maxNorm(const std::vector<Vec3>& a) {
+  double m = 0.0;
+  for (const Vec3& x : a) m = std::max(m, x.norm());
+  return m;
+}
+
+const std::vector<Vec3>& velocities(const State& s) { return s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector(); }
+
+TEST(SpringKernel, ScalarAlwaysThereAndForcingWorks) {
+  EXPECT_TRUE(detail::kernelSupported(Kernel::Scalar));
+  const Kernel automatic = detail::activeKernel();
+  {
+    ForcedKernel f(Kernel::Scalar);
+    ASSERT_TRUE(f.ok);
+    EXPECT_EQ(detail::activeKernel(), Kernel::Scalar);
+  }
+  EXPECT_EQ(detail::activeKernel(), automatic);
+  for (Kernel k : {Kernel::Avx2, Kernel::Avx512})
+    if (!detail::kernelSupported(k)) {
+      EXPECT_FALSE(detail::forceKernel(k)) << detail::kernelName(k);
+    }
+}
+
+// States are rebuilt (same seed) rather than copied: a copy is a new layout, so its
+// cache would be rebuilt and the springs added through the journal not exercised.
+TEST(SpringKernel, EveryPathMatchesTheScalarStepOnAnEditedMesh) {
+  Params p;
+  constexpr double dt = 1e-4;
+  constexpr int kSteps = 10;
+  // Reference: scalar, one thread.
+  State ref;
+  editedScene(p, ref);
+  {
+    ForcedKernel f(Kernel::Scalar);
+    for (int i = 0; i < kSteps; ++i) ASSERT_TRUE(rawStep(p, ref, Method::SymplecticEuler, dt));
+  }
+  ASSERT_GT(ref.cache.localUpdates, 0u);
+  ASSERT_GT(ref.cache.springs.size(), ref.cache.nCsr) << "the edits should leave added springs";
+  const double xScale = maxNorm(ref.mesh.positions()), vScale = maxNorm(velocities(ref));
+  ASSERT_GT(vScale, 1.0);
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel f(k);
+    ASSERT_TRUE(f.ok);
+    std::vector<Vec3> oneThread;
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(threads);
+      Params pt = p;
+      pt.threads = threads;
+      State s;
+      editedScene(pt, s);
+      for (int i = 0; i < kSteps; ++i) ASSERT_TRUE(rawStep(pt, s, Method::SymplecticEuler, dt));
+      EXPECT_EQ(s.cache.springs.size(), ref.cache.springs.size());
+      EXPECT_LT(testutil::maxDiff(s.mesh.positions(), ref.mesh.positions()), 1e-13 * xScale);
+      EXPECT_LT(testutil::maxDiff(velocities(s), velocities(ref)), 1e-11 * vScale);
+      if (threads == 1)
+        oneThread = s.mesh.positions();
+      else
+        EXPECT_EQ(s.mesh.positions(), oneThread) << "two threads must be bit-identical to one";
+    }
+  }
+}
+
+TEST(SpringKernel, ForcesAndMonitoredStepsAgreeAcrossPaths) {
+  Params p;
+  std::vector<Vec3> refForces;
+  State ref;
+  editedScene(p, ref);
+  std::vector<StepInfo> refInfo;
+  {
+    ForcedKernel f(Kernel::Scalar);
+    refForces = forces(p, ref);
+    for (int i = 0; i < 5; ++i) refInfo.push_back(step(p, ref, 1e-4));
+  }
+  const double fScale = maxNorm(refForces);
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel f(k);
+    State s;
+    editedScene(p, s);
+    EXPECT_LT(testutil::maxDiff(forces(p, s), refForces), 1e-12 * fScale);
+    for (int i = 0; i < 5; ++i) {
+      const StepInfo info = step(p, s, 1e-4);
+      EXPECT_EQ(info.accepted, refInfo[static_cast<std::size_t>(i)].accepted);
+      EXPECT_EQ(info.substeps, refInfo[static_cast<std::size_t>(i)].substeps);
+    }
+    EXPECT_EQ(s.stability.warnings, ref.stability.warnings);
+    EXPECT_LT(testutil::maxDiff(s.mesh.positions(), ref.mesh.positions()), 1e-9);
+  }
+}
+
+// The speed check takes the largest velocity component from the sweep and does the
+// exact pass only when 3 × its square passes the limit: a fast vertex along an axis is
+// within the limit, the same speed split over three axes is past it.
+TEST(SpringKernel, SpeedLimitIsExactOnEveryPath) {
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel f(k);
+    for (const auto& [v0, rejected] : {std::pair{Vec3(9.0, 0.0, 0.0), false}, std::pair{Vec3(6.0, 6.0, 6.0), true}}) {
+      testutil::Oscillator osc(0.0);
+      osc.params.stability.maxSpeed = 10.0;
+      osc.params.stability.maxSubsteps = 1;
+      osc.state.mesh.positions()[0] = Vec3::Zero();  // at home: the spring does nothing at first
+      osc.state.mesh.getVertexProperty<Vec3>(kVelocityProp).vector()[0] = v0;
+      const StepInfo info = step(osc.params, osc.state, 1e-6);
+      EXPECT_EQ(info.accepted, !rejected) << v0.transpose();
+      if (rejected) {
+        EXPECT_EQ(osc.state.stability.lastReason, "speed");
+      }
+    }
+  }
+}
+
+TEST(SpringKernel, NonFiniteIsReportedOnEveryPath) {
+  Params p;
+  State start;
+  editedScene(p, start);
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel f(k);
+    for (int threads : {1, 2}) {
+      Params pt = p;
+      pt.threads = threads;
+      State s = start;  // a NaN position near the end (second thread's half, a chunk tail)
+      s.mesh.positions()[s.mesh.verticesSize() - 3].x() = std::numeric_limits<double>::quiet_NaN();
+      EXPECT_FALSE(rawStep(pt, s, Method::SymplecticEuler, 1e-4));
+      State t = start;  // an infinite external force at the start
+      t.mesh.getVertexProperty<Vec3>(kForceProp).vector()[7].y() = std::numeric_limits<double>::infinity();
+      EXPECT_FALSE(rawStep(pt, t, Method::SymplecticEuler, 1e-4));
+      State u = start;
+      EXPECT_TRUE(rawStep(pt, u, Method::SymplecticEuler, 1e-4));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ld::physics
