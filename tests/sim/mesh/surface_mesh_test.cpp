@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sim/mesh/edit_fingerprint.h"
 #include "tests/support/test_support.h"
 
 namespace ld::mesh {
@@ -502,6 +503,97 @@ TEST(SurfaceMesh, MovingKeepsTheLayoutAndJournal) {
   (void)g;
   EXPECT_NE(moved.layoutVersion(), layout);
   EXPECT_TRUE(moved.editedEdges().empty());
+}
+
+// reserve() makes room in every property, attached ones and ones added later included,
+// so that edits within the reserved sizes move no array.
+TEST(SurfaceMesh, ReserveCoversEveryPropertySoEditsMoveNoArray) {
+  SurfaceMesh m = grid(2);
+  auto mass = m.addVertexProperty<double>("v:mass", 1.0);
+  auto rest = m.addEdgeProperty<double>("e:rest", 2.0);
+  auto tag = m.addFaceProperty<int>("f:tag", 3);
+  m.reserve(100, 300, 200);
+  auto late = m.addVertexProperty<int>("v:late", 4);
+  for (Face f : m.faces()) tag[f] = static_cast<int>(f.idx()) + 10;
+  const double* massData = mass.vector().data();
+  const double* restData = rest.vector().data();
+  const int* tagData = tag.vector().data();
+  const int* lateData = late.vector().data();
+  const Point* points = m.positions().data();
+  for (int i = 0; i < 30; ++i) {
+    const Face f(static_cast<std::uint32_t>(i % 8));  // split faces stay live
+    const Vertex c = m.splitFace(f, m.centroid(f));
+    EXPECT_EQ(mass[c], 1.0);
+    EXPECT_EQ(late[c], 4);
+  }
+  EXPECT_EQ(m.verticesSize(), 39u);
+  EXPECT_EQ(mass.vector().data(), massData);
+  EXPECT_EQ(rest.vector().data(), restData);
+  EXPECT_EQ(tag.vector().data(), tagData);
+  EXPECT_EQ(late.vector().data(), lateData);
+  EXPECT_EQ(m.positions().data(), points);
+  EXPECT_EQ(late.vector().size(), m.verticesSize());
+  for (Face f : m.faces()) EXPECT_GE(tag[f], 10);  // split parts inherit their face's tag
+  for (Edge e : m.edges()) EXPECT_EQ(rest[e], 2.0);
+  EXPECT_VALID(m);
+}
+
+// Properties grow together: one growth step gives every array (the built-in ones, the
+// attached ones) room for the same number of elements.
+TEST(SurfaceMesh, PropertiesGrowTogether) {
+  PropertyContainer c;
+  auto* a = c.add<double>("a", 0.5);
+  auto* b = c.add<std::vector<int>>("b", {});
+  c.pushBack();
+  EXPECT_GE(c.capacity(), 1u);
+  EXPECT_GE(a->vector().capacity(), c.capacity());
+  EXPECT_GE(b->vector().capacity(), c.capacity());
+  for (int i = 0; i < 100; ++i) c.pushBack();
+  EXPECT_EQ(c.size(), 101u);
+  EXPECT_EQ(a->vector().size(), 101u);
+  EXPECT_EQ(a->vector()[100], 0.5);
+  EXPECT_GE(a->vector().capacity(), c.capacity());
+  EXPECT_GE(b->vector().capacity(), c.capacity());
+  auto* late = c.add<int>("late", 7);
+  EXPECT_EQ(late->vector().size(), 101u);
+  EXPECT_GE(late->vector().capacity(), c.capacity());
+  c.compact({0, 5, 7});
+  EXPECT_EQ(c.size(), 3u);
+  EXPECT_EQ(late->vector().size(), 3u);
+  c.pushBack();
+  EXPECT_EQ(a->vector().size(), 4u);
+  EXPECT_EQ(late->vector()[3], 7);
+  PropertyContainer copy = c;
+  EXPECT_EQ(copy.size(), 4u);
+  copy.pushBack();
+  EXPECT_EQ(copy.get<int>("late")->vector().size(), 5u);
+  EXPECT_EQ(late->vector().size(), 4u);
+  PropertyContainer moved = std::move(copy);
+  EXPECT_EQ(moved.size(), 5u);
+  moved.pushBack();
+  EXPECT_EQ(moved.get<double>("a")->vector().size(), 6u);
+}
+
+// A copied mesh's vertex edge lists equal the original's (with room to grow).
+TEST(SurfaceMesh, CopiesKeepEdgeListsInOrder) {
+  SurfaceMesh m = grid(3);
+  m.splitEdge(m.findEdge(Vertex(5), Vertex(6)), {1.5, 1.0, 0.0});
+  const SurfaceMesh copy = m;
+  for (Vertex v : m.vertices()) {
+    ASSERT_EQ(copy.edges(v), m.edges(v)) << v;
+    if (!m.isIsolated(v)) {
+      EXPECT_GT(copy.edges(v).capacity(), copy.edges(v).size()) << v;
+    }
+  }
+  EXPECT_VALID(copy);
+}
+
+// The numbering of what edits create is behaviour (see edit_fingerprint.h): this
+// value was computed with the mesh before its edits were made allocation-free.
+TEST(SurfaceMesh, EditsNumberNewElementsAsBefore) {
+  const auto fp = test::editSequenceFingerprint();
+  EXPECT_TRUE(fp.topologyProblems.empty()) << fp.topologyProblems.front();
+  EXPECT_EQ(fp.hash, 0x5cc151d735ba8228ull);
 }
 
 }  // namespace
