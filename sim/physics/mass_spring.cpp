@@ -173,8 +173,7 @@ struct View {
   std::size_t n = 0;
   const std::uint32_t* first = nullptr;  // CSR by lower vertex (see Cache)
   const std::uint32_t* other = nullptr;
-  const std::int32_t* lower3 = nullptr;  // 3 × lower vertex (padded: see Cache)
-  const std::int32_t* other3 = nullptr;
+  const std::uint32_t* lower = nullptr;  // CSR slot → lower vertex
   const double* rest = nullptr;
   const double* k = nullptr;
   const Vec3* home = nullptr;
@@ -210,6 +209,7 @@ void sizeScratch(Cache& c, std::size_t n) {
   for (auto& ch : c.chunk)
     if (ch.size() != 6 * cap) ch.assign(6 * cap, 0.0);
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->resize(n, Vec3::Zero());
+  for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n, 0.0);
 }
 
 // One O(V + E) pass over the mesh's arrays.
@@ -255,13 +255,9 @@ void rebuildCache(Cache& c, const mesh::SurfaceMesh& m) {
         std::swap(c.k[t - 1], c.k[t]);
         std::swap(edgeOf[t - 1], edgeOf[t]);
       }
-  c.lower3.assign(ns + 8, 0);
-  c.other3.assign(ns + 8, 0);
+  c.lower.resize(ns);
   for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
-      c.lower3[q] = static_cast<std::int32_t>(3 * i);
-      c.other3[q] = static_cast<std::int32_t>(3 * c.other[q]);
-    }
+    std::fill(c.lower.begin() + c.first[i], c.lower.begin() + c.first[i + 1], static_cast<std::uint32_t>(i));
   c.springs.resize(ns);
   c.nCsr = ns;
   c.liveSprings = ns;
@@ -290,6 +286,8 @@ void rebuildCache(Cache& c, const mesh::SurfaceMesh& m) {
       if (c.other[q] >= c.splitVertex) c.cross.push_back(q);
   c.f.assign(n, Vec3::Zero());
   c.scatter.assign(n, Vec3::Zero());
+  c.f4.assign(4 * n, 0.0);
+  c.scatter4.assign(4 * n, 0.0);
   sizeScratch(c, n);
   c.forceZero = true;
   ++c.rebuilds;
@@ -394,8 +392,7 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
   w.n = c.nVertexSlots;
   w.first = c.first.data();
   w.other = c.other.data();
-  w.lower3 = c.lower3.data();
-  w.other3 = c.other3.data();
+  w.lower = c.lower.data();
   w.rest = c.rest.data();
   w.k = c.k.data();
   w.home = m.getVertexProperty<Vec3>(kHomeProp).vector().data();
@@ -412,52 +409,39 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
 inline const double* raw(const Vec3* p) { return p->data(); }
 inline double* raw(Vec3* p) { return p->data(); }
 
-// Per-thread index scratch for the kernels (3 × vertex index of both ends of each
-// spring in a chunk, 8 padding entries kept valid for the vector loads).
+// Per-thread scratch: a chunk's own-spring sums (4 a vertex, zero between chunks),
+// room for the crossing springs' rest and k, and their end indices.
 struct ChunkScratch {
-  double *gx, *gy, *gz;  // spring forces on the lower vertex
-  double* fin;           // finished vertex forces (3 a vertex) or gathered rest/k
-  std::int32_t *lo3, *oth3;
+  double* own4;
+  double *rest, *k;
+  std::uint32_t *lo, *oth;
   std::size_t cap;
 };
 
 ChunkScratch chunkScratch(std::vector<double>& buf) {
-  thread_local std::vector<std::int32_t> lo3, oth3;
+  thread_local std::vector<std::uint32_t> lo, oth;
   const std::size_t cap = buf.size() / 6;
-  if (lo3.size() < cap + 8) {
-    lo3.assign(cap + 8, 0);
-    oth3.assign(cap + 8, 0);
+  if (lo.size() < cap) {
+    lo.assign(cap, 0);
+    oth.assign(cap, 0);
   }
   double* s = buf.data();
-  return {s, s + cap, s + 2 * cap, s + 3 * cap, lo3.data(), oth3.data(), cap};
+  return {s, s + 4 * cap, s + 5 * cap, lo.data(), oth.data(), cap};
 }
 
-inline void padIndices(const ChunkScratch& sc, std::size_t m) {
-  std::fill_n(sc.lo3 + m, 8, 0);
-  std::fill_n(sc.oth3 + m, 8, 0);
-}
-
-// The spring sweep over the vertices [vBegin, vEnd) at positions x. Forces on higher
-// vertices are scattered into f (only below writeLimit: the first of two threads
-// leaves the crossing springs' far ends to the second). Chunks of vertices whose
-// springs fit the scratch: the kernel computes the chunk's spring forces (vector
-// lanes, gathers), then a short scalar pass sums each vertex's springs, scatters the
-// far ends, and writes the vertex's finished force (its slot in f zeroed for the next
-// sweep) to sc.fin; done(v0, v1, fin) integrates the chunk. Returns the energy of the
-// sweep's springs.
+// The spring sweep over the vertices [vBegin, vEnd) at positions x, in chunks of
+// vertices whose springs fit the scratch. The kernel adds each spring's force to its
+// lower vertex's chunk-local sum (sc.own4) and subtracts it from the far end's slot
+// in f4 (only below writeLimit: the first of two threads leaves the crossing springs'
+// far ends to the second). Every spring touching a chunk's vertices from below was
+// done in an earlier chunk, so a vertex's force is then f4 + own4:
+// done(v0, v1) integrates the chunk and zeroes both for the next chunk and sweep.
+// Returns the energy of the sweep's springs.
 template <class ChunkDone>
-double springSweep(const View& w, detail::Kernel kern, const double* __restrict x, double* __restrict f,
-                   const ChunkScratch& sc, std::size_t vBegin, std::size_t vEnd, std::size_t writeLimit,
-                   ChunkDone&& done) {
-  const double* __restrict gx = sc.gx;
-  const double* __restrict gy = sc.gy;
-  const double* __restrict gz = sc.gz;
-  double* __restrict fin = sc.fin;
+double springSweep(const View& w, detail::Kernel kern, const double* x, double* f4, const ChunkScratch& sc,
+                   std::size_t vBegin, std::size_t vEnd, std::size_t writeLimit, ChunkDone&& done) {
   const std::uint32_t* __restrict first = w.first;
-  const std::int32_t* __restrict lower3 = w.lower3;
-  const std::int32_t* __restrict other3 = w.other3;
   const std::size_t cap = sc.cap;
-  const auto limit3 = static_cast<std::int64_t>(3 * writeLimit);
   double pe = 0.0;
   std::size_t v0 = vBegin;
   while (v0 < vEnd) {
@@ -465,67 +449,54 @@ double springSweep(const View& w, detail::Kernel kern, const double* __restrict 
     std::size_t v1 = v0 + 1;
     const std::uint32_t sBase = first[v0];
     while (v1 < vEnd && v1 - v0 < cap && first[v1 + 1] - sBase <= cap) ++v1;
-    const std::size_t m = first[v1] - sBase, nc = 3 * (v1 - v0);
-    pe += detail::springForces(
-        kern, {x, lower3 + sBase, other3 + sBase, w.rest + sBase, w.k + sBase, sc.gx, sc.gy, sc.gz, m});
-    // Each spring into its lower vertex's sum (chunk-local, in spring order) and out
-    // of its far end's slot in f; then a vertex's force is f's slot + its own sum.
-    std::fill_n(fin, nc, 0.0);
-    const auto base = static_cast<std::int64_t>(3 * v0);
-    for (std::size_t t = 0; t < m; ++t) {
-      const std::size_t s = sBase + t;
-      double* __restrict own = fin + (lower3[s] - base);
-      own[0] += gx[t];
-      own[1] += gy[t];
-      own[2] += gz[t];
-      const std::int64_t j3 = other3[s];
-      if (j3 < limit3) {
-        f[j3] -= gx[t];
-        f[j3 + 1] -= gy[t];
-        f[j3 + 2] -= gz[t];
-      }
-    }
-    double* __restrict fc = f + base;
-    for (std::size_t b = 0; b < nc; ++b) {
-      fin[b] = fc[b] + fin[b];
-      fc[b] = 0.0;
-    }
-    done(v0, v1, static_cast<const double*>(fin));
+    detail::SpringChunk ch;
+    ch.x = x;
+    ch.lo = w.lower + sBase;
+    ch.oth = w.other + sBase;
+    ch.rest = w.rest + sBase;
+    ch.k = w.k + sBase;
+    ch.own4 = sc.own4;
+    ch.firstVertex = v0;
+    ch.f4 = f4;
+    ch.writeLimit = writeLimit;
+    ch.m = first[v1] - sBase;
+    pe += detail::springForces(kern, ch);
+    done(v0, v1);
     v0 = v1;
   }
   return 0.5 * pe;
 }
 
 // The second thread's share of the crossing springs: their far ends' forces, added to
-// f before its sweep (in spring order, so each vertex's sum matches one thread's; the
+// f4 before its sweep (in spring order, so each vertex's sum matches one thread's; the
 // same kernel computes each spring as the first thread's sweep does).
-void crossSprings(const View& w, detail::Kernel kern, const std::uint32_t* list, std::size_t count,
-                  const double* __restrict x, double* __restrict f, const ChunkScratch& sc) {
-  double* __restrict rs = sc.fin;  // rest and k gathered (fin has 3·cap room)
-  double* __restrict ks = sc.fin + sc.cap;
+void crossSprings(const View& w, detail::Kernel kern, const std::uint32_t* list, std::size_t count, const double* x,
+                  double* f4, const ChunkScratch& sc) {
   for (std::size_t b = 0; b < count; b += sc.cap) {
     const std::size_t m = std::min(sc.cap, count - b);
     for (std::size_t t = 0; t < m; ++t) {
       const Spring& sp = w.springs[list[b + t]];
-      sc.lo3[t] = static_cast<std::int32_t>(3 * sp.i);
-      sc.oth3[t] = static_cast<std::int32_t>(3 * sp.j);
-      rs[t] = sp.rest;
-      ks[t] = sp.k;
+      sc.lo[t] = sp.i;
+      sc.oth[t] = sp.j;
+      sc.rest[t] = sp.rest;
+      sc.k[t] = sp.k;
     }
-    padIndices(sc, m);
-    (void)detail::springForces(kern, {x, sc.lo3, sc.oth3, rs, ks, sc.gx, sc.gy, sc.gz, m});
-    for (std::size_t t = 0; t < m; ++t) {
-      const std::uint32_t j = w.springs[list[b + t]].j;
-      f[3 * j] -= sc.gx[t];
-      f[3 * j + 1] -= sc.gy[t];
-      f[3 * j + 2] -= sc.gz[t];
-    }
+    detail::SpringChunk ch;
+    ch.x = x;
+    ch.lo = sc.lo;
+    ch.oth = sc.oth;
+    ch.rest = sc.rest;
+    ch.k = sc.k;
+    ch.f4 = f4;
+    ch.writeLimit = w.n;
+    ch.m = m;
+    (void)detail::springForces(kern, ch);
   }
 }
 
 // The springs added since the last rebuild, into f at both ends (before the sweep, so
 // one and two threads sum every vertex's force in the same order). Returns their energy.
-double addedSprings(const View& w, const double* __restrict x, double* __restrict f) {
+double addedSprings(const View& w, const double* __restrict x, double* __restrict f4) {
   double pe = 0.0;
   for (std::size_t s = w.nCsr; s < w.nSprings; ++s) {
     const Spring& sp = w.springs[s];
@@ -535,12 +506,12 @@ double addedSprings(const View& w, const double* __restrict x, double* __restric
     const double kst = sp.k * (l - sp.rest);
     pe += kst * (l - sp.rest);
     const double q = l > 0.0 ? kst / l : 0.0;
-    f[3 * i] += q * ax;
-    f[3 * i + 1] += q * ay;
-    f[3 * i + 2] += q * az;
-    f[3 * j] -= q * ax;
-    f[3 * j + 1] -= q * ay;
-    f[3 * j + 2] -= q * az;
+    f4[4 * i] += q * ax;
+    f4[4 * i + 1] += q * ay;
+    f4[4 * i + 2] += q * az;
+    f4[4 * j] -= q * ax;
+    f4[4 * j + 1] -= q * ay;
+    f4[4 * j + 2] -= q * az;
   }
   return 0.5 * pe;
 }
@@ -551,25 +522,30 @@ struct PotentialParts {
 
 // Full force into f (damping with v unless v is null; f need not be zeroed).
 PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec3* v, Vec3* f) {
-  // The sweep scatters into a zeroed buffer and writes each finished total into f.
-  std::vector<Vec3>& acc = c.scatter;
+  // The sweep scatters into a zeroed buffer; each finished total goes into f.
+  double* acc = c.scatter4.data();
   PotentialParts e;
   double home = 0.0;
-  const double added = addedSprings(w, raw(x), raw(acc.data()));
-  e.spring = added + springSweep(w, detail::activeKernel(), raw(x), raw(acc.data()), chunkScratch(c.chunk[0]), 0, w.n,
-                                 w.n, [&](std::size_t v0, std::size_t v1, const double* fin) {
-                                   for (std::size_t i = v0; i < v1; ++i) {
-                                     if (w.invMass[i] == 0.0) {
-                                       f[i].setZero();
-                                       continue;
-                                     }
-                                     const double* fi = fin + 3 * (i - v0);
-                                     const Vec3 dh = x[i] - w.home[i];
-                                     home += 0.5 * w.homeK * dh.squaredNorm();
-                                     f[i] = Vec3(fi[0], fi[1], fi[2]) + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
-                                     if (v) f[i] -= (w.c * w.mass[i]) * v[i];
-                                   }
-                                 });
+  const double added = addedSprings(w, raw(x), acc);
+  const ChunkScratch sc = chunkScratch(c.chunk[0]);
+  e.spring =
+      added + springSweep(w, detail::activeKernel(), raw(x), acc, sc, 0, w.n, w.n, [&](std::size_t v0, std::size_t v1) {
+        for (std::size_t i = v0; i < v1; ++i) {
+          double* fa = acc + 4 * i;
+          double* own = sc.own4 + 4 * (i - v0);
+          const Vec3 fs(fa[0] + own[0], fa[1] + own[1], fa[2] + own[2]);
+          std::fill_n(fa, 4, 0.0);
+          std::fill_n(own, 4, 0.0);
+          if (w.invMass[i] == 0.0) {
+            f[i].setZero();
+            continue;
+          }
+          const Vec3 dh = x[i] - w.home[i];
+          home += 0.5 * w.homeK * dh.squaredNorm();
+          f[i] = fs + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
+          if (v) f[i] -= (w.c * w.mass[i]) * v[i];
+        }
+      });
   e.home = home;
   return e;
 }
@@ -687,7 +663,8 @@ struct SweepSums {
 struct SymplecticArgs {
   const View* w;
   const Vec3 *x0, *v0;
-  Vec3 *x1, *v1, *f;
+  Vec3 *x1, *v1;
+  double* f4;
   double dt;
   detail::Kernel kernel;
 };
@@ -705,21 +682,22 @@ SweepSums symplecticSweep(const SymplecticArgs& a, const ChunkScratch& sc, std::
   fc.g[2] = w.g.z();
   detail::FinishSums acc;
   SweepSums s;
-  s.spring0 = springSweep(w, a.kernel, raw(a.x0), raw(a.f), sc, vBegin, vEnd, writeLimit,
-                          [&](std::size_t v0, std::size_t v1, const double* fin) {
-                            const std::size_t b = 3 * v0;
-                            fc.f = fin;
-                            fc.x0 = raw(a.x0) + b;
-                            fc.v0 = raw(a.v0) + b;
-                            fc.home = raw(w.home) + b;
-                            fc.ext = raw(w.ext) + b;
-                            fc.invMass = w.invMass + v0;
-                            fc.mass = w.mass + v0;
-                            fc.x1 = raw(a.x1) + b;
-                            fc.v1 = raw(a.v1) + b;
-                            fc.nv = v1 - v0;
-                            detail::finishSymplectic(a.kernel, fc, acc);
-                          });
+  s.spring0 =
+      springSweep(w, a.kernel, raw(a.x0), a.f4, sc, vBegin, vEnd, writeLimit, [&](std::size_t v0, std::size_t v1) {
+        const std::size_t b = 3 * v0;
+        fc.f4 = a.f4 + 4 * v0;
+        fc.own4 = sc.own4;
+        fc.x0 = raw(a.x0) + b;
+        fc.v0 = raw(a.v0) + b;
+        fc.home = raw(w.home) + b;
+        fc.ext = raw(w.ext) + b;
+        fc.invMass = w.invMass + v0;
+        fc.mass = w.mass + v0;
+        fc.x1 = raw(a.x1) + b;
+        fc.v1 = raw(a.v1) + b;
+        fc.nv = v1 - v0;
+        detail::finishSymplectic(a.kernel, fc, acc);
+      });
   s.ke1 = 0.5 * acc.ke1;
   s.home1 = 0.5 * w.homeK * acc.home1;
   s.v2 = acc.v2;
@@ -736,7 +714,7 @@ struct SymplecticJob {
     auto* j = static_cast<SymplecticJob*>(p);
     Cache& c = *j->c;
     const ChunkScratch sc = chunkScratch(c.chunk[1]);
-    crossSprings(*j->args->w, j->args->kernel, c.cross.data(), c.cross.size(), raw(j->args->x0), raw(j->args->f), sc);
+    crossSprings(*j->args->w, j->args->kernel, c.cross.data(), c.cross.size(), raw(j->args->x0), j->args->f4, sc);
     j->sums = symplecticSweep(*j->args, sc, c.splitVertex, j->args->w->n, j->args->w->n);
   }
 };
@@ -746,12 +724,11 @@ struct SymplecticJob {
 // is bit-identical to one thread).
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
                           int threads) {
-  Vec3* f = c.f.data();
-  if (!c.forceZero)
-    for (std::size_t i = 0; i < w.n; ++i) f[i].setZero();
+  double* f4 = c.f4.data();
+  if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
-  const SymplecticArgs args{&w, x0, v0, x1, v1, f, dt, detail::activeKernel()};
-  const double added = addedSprings(w, raw(x0), raw(f));
+  const SymplecticArgs args{&w, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
+  const double added = addedSprings(w, raw(x0), f4);
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
     sums = symplecticSweep(args, chunkScratch(c.chunk[0]), 0, w.n, w.n);

@@ -153,9 +153,7 @@ struct Cache {
   std::vector<std::uint32_t> edgeSlot;  // edge index → index in springs (or ~0)
   std::vector<double> vertexStiffness;  // Σ k of the springs at each vertex
   std::vector<std::uint32_t> first, other;
-  // The CSR springs' ends as offsets into the position array (3 × vertex index), with 8
-  // zero entries past the end, read by the vector kernels (spring_kernel.h).
-  std::vector<std::int32_t> lower3, other3;
+  std::vector<std::uint32_t> lower;  // CSR slot → its lower vertex (for the kernels)
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
   // Two threads: vertices [0, splitVertex) and [splitVertex, n); `cross` lists the
@@ -170,13 +168,16 @@ struct Cache {
   // Scratch (kept to avoid allocations per step).
   std::vector<Eigen::Vector3d> f, f2, xb, vb, k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, xt, vt;
   std::vector<Eigen::Vector3d> scatter;  // zero between sweeps (forces of finished vertices)
-  std::vector<double> chunk[2];          // per-thread spring scratch
-  std::vector<double> lambda;            // xpbd multipliers (springs)
+  // The symplectic sweep's force accumulator and the force pass's, 4 doubles a vertex
+  // (x, y, z, unused: one 4-wide update per spring end); zero between sweeps.
+  std::vector<double> f4, scatter4;
+  std::vector<double> chunk[2];  // per-thread spring scratch
+  std::vector<double> lambda;    // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
   std::uint64_t localUpdates = 0;
 };
 struct ActiveSet {
-  std::vector<std::uint8_t> awake;                 // 0 asleep, 1 awake, 2 fell asleep this step
+  std::vector<std::uint8_t> awake;  // 0 asleep, 1 awake, 2 fell asleep this step
   std::vector<std::uint16_t> quiet;
   std::vector<std::uint32_t> list;                 // awake vertices (kept between steps)
   std::vector<std::uint32_t> pending;              // named by wake(), woken at the next step

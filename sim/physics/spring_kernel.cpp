@@ -27,17 +27,28 @@ namespace {
 double springForcesScalar(const SpringChunk& c) {
   double pe = 0.0;
   for (std::size_t t = 0; t < c.m; ++t) {
-    const double* xi = c.x + c.lo3[t];
-    const double* xj = c.x + c.oth3[t];
+    const std::size_t i = c.lo[t], j = c.oth[t];
+    const double* xi = c.x + 3 * i;
+    const double* xj = c.x + 3 * j;
     const double dx = xj[0] - xi[0], dy = xj[1] - xi[1], dz = xj[2] - xi[2];
     const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
     const double st = l - c.rest[t];
     const double kst = c.k[t] * st;
     pe += kst * st;
     const double q = l > 0.0 ? kst / l : 0.0;
-    c.gx[t] = q * dx;
-    c.gy[t] = q * dy;
-    c.gz[t] = q * dz;
+    const double gx = q * dx, gy = q * dy, gz = q * dz;
+    if (c.own4) {
+      double* o = c.own4 + 4 * (i - c.firstVertex);
+      o[0] += gx;
+      o[1] += gy;
+      o[2] += gz;
+    }
+    if (j < c.writeLimit) {
+      double* fj = c.f4 + 4 * j;
+      fj[0] -= gx;
+      fj[1] -= gy;
+      fj[2] -= gz;
+    }
   }
   return pe;
 }
@@ -47,10 +58,12 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
   for (std::size_t t = 0; t < c.nv; ++t) {
     const double im = c.invMass[t], m = c.mass[t];
     const bool live = im != 0.0;
+    double* f4 = c.f4 + 4 * t;
+    double* own4 = c.own4 + 4 * t;
     for (std::size_t a = 0; a < 3; ++a) {
       const std::size_t b = 3 * t + a;
       const double h = c.x0[b] - c.home[b];
-      const double acc = (c.f[b] + c.ext[b]) - c.homeK * h;
+      const double acc = ((f4[a] + own4[a]) + c.ext[b]) - c.homeK * h;
       const double u = live ? c.damp * c.v0[b] + c.dt * (im * acc + c.g[a]) : 0.0;
       const double e = c.dt * u;
       const double p = c.x0[b] + e;
@@ -63,6 +76,8 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
       work += (c.ext[b] + m * c.g[a]) * e;
       if (live) home1 += (p - c.home[b]) * (p - c.home[b]);
     }
+    std::fill_n(f4, 4, 0.0);
+    std::fill_n(own4, 4, 0.0);
   }
   s.ke1 += ke1;
   s.home1 += home1;
@@ -84,19 +99,35 @@ LD_AVX2 inline double hmax(__m256d v) {
   return _mm_cvtsd_f64(_mm_max_sd(s, _mm_unpackhi_pd(s, s)));
 }
 
+// One spring's force (x, y, z, 0) into its lower vertex's sum and out of its far end.
+LD_AVX2 inline void applySpring(const SpringChunk& c, std::size_t a, __m256d g) {
+  if (c.own4) {
+    double* o = c.own4 + 4 * (c.lo[a] - c.firstVertex);
+    _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), g));
+  }
+  if (c.oth[a] < c.writeLimit) {
+    double* fj = c.f4 + 4 * std::size_t{c.oth[a]};
+    _mm256_storeu_pd(fj, _mm256_sub_pd(_mm256_loadu_pd(fj), g));
+  }
+}
+
 LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256i lanes = _mm256_setr_epi64x(0, 1, 2, 3);
   const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
   __m256d pe = zero;
   for (std::size_t t = 0; t < c.m; t += 4) {
-    // Lanes past m: indices are padded (valid), rest and k load as 0, nothing stored.
-    const __m256i mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(c.m - t)), lanes);
+    // Lanes past m repeat the last spring; rest and k load as 0 there, nothing stored.
+    const std::size_t cnt = std::min<std::size_t>(4, c.m - t);
+    const __m256i mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(cnt)), lanes);
     // Difference vectors (x, y, z, 0) of 4 springs, transposed (loads and shuffles
-    // rather than gathers, as in the AVX-512 path).
+    // rather than gathers, which are slow on many CPUs).
     __m256d d[4];
-    for (std::size_t u = 0; u < 4; ++u)
-      d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x + c.oth3[t + u], xyz), _mm256_maskload_pd(c.x + c.lo3[t + u], xyz));
+    for (std::size_t u = 0; u < 4; ++u) {
+      const std::size_t a = t + std::min(u, cnt - 1);
+      d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x + 3 * std::size_t{c.oth[a]}, xyz),
+                           _mm256_maskload_pd(c.x + 3 * std::size_t{c.lo[a]}, xyz));
+    }
     const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
     const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
     const __m256d dx = _mm256_permute2f128_pd(t0, t2, 0x20);
@@ -108,9 +139,9 @@ LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
     const __m256d kst = _mm256_mul_pd(_mm256_maskload_pd(c.k + t, mask), st);
     pe = _mm256_fmadd_pd(kst, st, pe);
     const __m256d q = _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, zero, _CMP_GT_OQ));
-    _mm256_maskstore_pd(c.gx + t, mask, _mm256_mul_pd(q, dx));
-    _mm256_maskstore_pd(c.gy + t, mask, _mm256_mul_pd(q, dy));
-    _mm256_maskstore_pd(c.gz + t, mask, _mm256_mul_pd(q, dz));
+    alignas(32) double qs[4];
+    _mm256_store_pd(qs, q);
+    for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
   }
   return hsum(pe);
 }
@@ -119,12 +150,22 @@ struct Acc2 {
   __m256d ke, home, v2, work, maxc;
 };
 
-// Four vertices (12 doubles, 3 registers) from arrays that hold all of them.
-LD_AVX2 inline void finish4(const FinishChunk& c, const double* f, const double* x0, const double* v0,
+// Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
+// force from f4 + own4 (4 a vertex, zeroed here), regrouped to 3 a vertex.
+LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, const double* x0, const double* v0,
                             const double* home, const double* ext, const double* im, const double* mass, double* x1,
                             double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
+  __m256d fa[4];
+  for (int u = 0; u < 4; ++u) {
+    fa[u] = _mm256_add_pd(_mm256_loadu_pd(f4 + 4 * u), _mm256_loadu_pd(own4 + 4 * u));
+    _mm256_storeu_pd(f4 + 4 * u, zero);
+    _mm256_storeu_pd(own4 + 4 * u, zero);
+  }
+  const __m256d F[3] = {_mm256_blend_pd(fa[0], _mm256_permute4x64_pd(fa[1], 0x00), 0x8),
+                        _mm256_blend_pd(_mm256_permute4x64_pd(fa[1], 0x09), _mm256_permute4x64_pd(fa[2], 0x40), 0xC),
+                        _mm256_blend_pd(_mm256_permute4x64_pd(fa[3], 0x90), _mm256_permute4x64_pd(fa[2], 0x02), 0x1)};
   const __m256d imv = _mm256_loadu_pd(im), mv = _mm256_loadu_pd(mass);
   const __m256d im3[3] = {_mm256_permute4x64_pd(imv, 0x40), _mm256_permute4x64_pd(imv, 0xA5),
                           _mm256_permute4x64_pd(imv, 0xFE)};
@@ -134,7 +175,7 @@ LD_AVX2 inline void finish4(const FinishChunk& c, const double* f, const double*
     const __m256d live = _mm256_cmp_pd(im3[r], zero, _CMP_NEQ_OQ);
     const __m256d X = _mm256_loadu_pd(x0 + 4 * r), H = _mm256_loadu_pd(home + 4 * r);
     const __m256d E = _mm256_loadu_pd(ext + 4 * r);
-    const __m256d a = _mm256_fnmadd_pd(homeK, _mm256_sub_pd(X, H), _mm256_add_pd(_mm256_loadu_pd(f + 4 * r), E));
+    const __m256d a = _mm256_fnmadd_pd(homeK, _mm256_sub_pd(X, H), _mm256_add_pd(F[r], E));
     const __m256d u = _mm256_and_pd(live, _mm256_fmadd_pd(damp, _mm256_loadu_pd(v0 + 4 * r),
                                                           _mm256_mul_pd(dt, _mm256_fmadd_pd(im3[r], a, grav[r]))));
     const __m256d e = _mm256_mul_pd(dt, u);
@@ -160,20 +201,24 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   std::size_t t = 0;
   for (; t + 4 <= c.nv; t += 4) {
     const std::size_t b = 3 * t;
-    finish4(c, c.f + b, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t, c.x1 + b, c.v1 + b, grav,
-            acc);
+    finish4(c, c.f4 + 4 * t, c.own4 + 4 * t, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t,
+            c.x1 + b, c.v1 + b, grav, acc);
   }
   if (t < c.nv) {
     // The last 1–3 vertices through the same lanes, padded with massless zeros.
     const std::size_t rem = c.nv - t, b = 3 * t;
-    double buf[7][12] = {}, im[4] = {}, mass[4] = {};
-    const double* src[5] = {c.f + b, c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
-    for (int a = 0; a < 5; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
+    double buf[6][12] = {}, f4[16] = {}, own4[16] = {}, im[4] = {}, mass[4] = {};
+    const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
+    for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
+    std::copy(c.f4 + 4 * t, c.f4 + 4 * (t + rem), f4);
+    std::copy(c.own4 + 4 * t, c.own4 + 4 * (t + rem), own4);
+    std::fill(c.f4 + 4 * t, c.f4 + 4 * (t + rem), 0.0);
+    std::fill(c.own4 + 4 * t, c.own4 + 4 * (t + rem), 0.0);
     std::copy(c.invMass + t, c.invMass + t + rem, im);
     std::copy(c.mass + t, c.mass + t + rem, mass);
-    finish4(c, buf[0], buf[1], buf[2], buf[3], buf[4], im, mass, buf[5], buf[6], grav, acc);
-    std::copy(buf[5], buf[5] + 3 * rem, c.x1 + b);
-    std::copy(buf[6], buf[6] + 3 * rem, c.v1 + b);
+    finish4(c, f4, own4, buf[0], buf[1], buf[2], buf[3], im, mass, buf[4], buf[5], grav, acc);
+    std::copy(buf[4], buf[4] + 3 * rem, c.x1 + b);
+    std::copy(buf[5], buf[5] + 3 * rem, c.v1 + b);
   }
   s.ke1 += hsum(acc.ke);
   s.home1 += hsum(acc.home);
@@ -184,24 +229,35 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
 
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
 
+LD_AVX512 inline void applySpring512(const SpringChunk& c, std::size_t a, __m256d g) {
+  if (c.own4) {
+    double* o = c.own4 + 4 * (c.lo[a] - c.firstVertex);
+    _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), g));
+  }
+  if (c.oth[a] < c.writeLimit) {
+    double* fj = c.f4 + 4 * std::size_t{c.oth[a]};
+    _mm256_storeu_pd(fj, _mm256_sub_pd(_mm256_loadu_pd(fj), g));
+  }
+}
+
 LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
   const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5), threeHalves = _mm512_set1_pd(1.5);
   __m512d pe = zero;
   for (std::size_t t = 0; t < c.m; t += 8) {
-    const std::size_t rem = c.m - t;
-    const __mmask8 mk = rem >= 8 ? __mmask8(0xFF) : __mmask8((1u << rem) - 1u);
+    const std::size_t cnt = std::min<std::size_t>(8, c.m - t);
+    const __mmask8 mk = __mmask8((1u << cnt) - 1u);
     // Difference vectors (x, y, z, 0) of the 8 springs, transposed to x, y and z
     // registers: 16 three-lane loads and 11 shuffles beat 6 gathers (slow on many
     // CPUs, ~12 cycles each here).
-    __m512d p[4];
-    for (int u = 0; u < 4; ++u) {
-      const std::size_t a = t + 2 * static_cast<std::size_t>(u), b = a + 1;
-      const __m256d d0 =
-          _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + c.oth3[a]), _mm256_maskz_loadu_pd(0x7, c.x + c.lo3[a]));
-      const __m256d d1 =
-          _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + c.oth3[b]), _mm256_maskz_loadu_pd(0x7, c.x + c.lo3[b]));
-      p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d0), d1, 1);
+    // Lanes past m repeat the last spring (rest and k load as 0 there; not applied).
+    __m256d d[8];
+    for (std::size_t u = 0; u < 8; ++u) {
+      const std::size_t a = t + std::min(u, cnt - 1);
+      d[u] = _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.oth[a]}),
+                           _mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.lo[a]}));
     }
+    __m512d p[4];
+    for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
     const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
     const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
     const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
@@ -220,9 +276,9 @@ LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
     const __m512d kst = _mm512_mul_pd(_mm512_maskz_loadu_pd(mk, c.k + t), st);
     pe = _mm512_fmadd_pd(kst, st, pe);
     const __m512d q = _mm512_maskz_mul_pd(pos, kst, r);
-    _mm512_mask_storeu_pd(c.gx + t, mk, _mm512_mul_pd(q, dx));
-    _mm512_mask_storeu_pd(c.gy + t, mk, _mm512_mul_pd(q, dy));
-    _mm512_mask_storeu_pd(c.gz + t, mk, _mm512_mul_pd(q, dz));
+    alignas(64) double qs[8];
+    _mm512_store_pd(qs, q);
+    for (std::size_t u = 0; u < cnt; ++u) applySpring512(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
   }
   return _mm512_reduce_add_pd(pe);
 }
@@ -237,11 +293,26 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
   // Register r of 8 vertices holds components 8r … 8r+7: vertex (8r + lane) / 3.
   const __m512i spread[3] = {_mm512_setr_epi64(0, 0, 0, 1, 1, 1, 2, 2), _mm512_setr_epi64(2, 3, 3, 3, 4, 4, 4, 5),
                              _mm512_setr_epi64(5, 5, 6, 6, 6, 7, 7, 7)};
+  const __m512i regroup[3] = {_mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12),
+                              _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14)};
   __m512d ke = zero, home = zero, v2 = zero, work = zero, maxc = zero;
   for (std::size_t t = 0; t < c.nv; t += 8) {
     const std::size_t rem = std::min<std::size_t>(8, c.nv - t), comps = 3 * rem, b = 3 * t;
     const __mmask8 vm = __mmask8((1u << rem) - 1u);
     const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+    // Forces of the 8 vertices (f4 + own4, 4 a vertex, zeroed here) regrouped to 3 a vertex.
+    __m512d fa[4];
+    for (std::size_t u = 0; u < 4; ++u) {
+      const __mmask8 two = __mmask8((rem > 2 * u ? 0x0Fu : 0u) | (rem > 2 * u + 1 ? 0xF0u : 0u));
+      double* f4 = c.f4 + 4 * t + 8 * u;
+      double* own4 = c.own4 + 4 * t + 8 * u;
+      fa[u] = _mm512_add_pd(_mm512_maskz_loadu_pd(two, f4), _mm512_maskz_loadu_pd(two, own4));
+      _mm512_mask_storeu_pd(f4, two, zero);
+      _mm512_mask_storeu_pd(own4, two, zero);
+    }
+    const __m512d F[3] = {_mm512_permutex2var_pd(fa[0], regroup[0], fa[1]),
+                          _mm512_permutex2var_pd(fa[1], regroup[1], fa[2]),
+                          _mm512_permutex2var_pd(fa[2], regroup[2], fa[3])};
     for (std::size_t r = 0; r < 3; ++r) {
       const std::size_t lo = 8 * r;
       const std::size_t cnt = comps > lo ? std::min<std::size_t>(8, comps - lo) : 0;
@@ -251,8 +322,7 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
       const __mmask8 live = _mm512_cmp_pd_mask(im3, zero, _CMP_NEQ_OQ);
       const __m512d X = _mm512_maskz_loadu_pd(mk, c.x0 + o), H = _mm512_maskz_loadu_pd(mk, c.home + o);
       const __m512d E = _mm512_maskz_loadu_pd(mk, c.ext + o);
-      const __m512d a =
-          _mm512_fnmadd_pd(homeK, _mm512_sub_pd(X, H), _mm512_add_pd(_mm512_maskz_loadu_pd(mk, c.f + o), E));
+      const __m512d a = _mm512_fnmadd_pd(homeK, _mm512_sub_pd(X, H), _mm512_add_pd(F[r], E));
       const __m512d u = _mm512_maskz_fmadd_pd(live, damp, _mm512_maskz_loadu_pd(mk, c.v0 + o),
                                               _mm512_mul_pd(dt, _mm512_fmadd_pd(im3, a, grav[r])));
       const __m512d e = _mm512_mul_pd(dt, u);

@@ -25,25 +25,34 @@ enum class Kernel { Scalar, Avx2, Avx512 };
 // changes nothing) when the path is not supported here.
 bool forceKernel(std::optional<Kernel> k);
 
-// Springs of one chunk: t in [0, m). Index arrays hold 3 × vertex index (the offset of
-// the vertex's x in the position array) and have room for 8 more entries past m.
+// Springs [0, m) of one chunk (vertex indices of both ends, rest, k). Each spring's
+// force g = k(l − rest)/l · (x_j − x_i) is added, in spring order, to its lower
+// vertex's chunk-local sum own4[4·(i − firstVertex)] (unless own4 is null) and
+// subtracted from f4[4·j] when j < writeLimit. Force buffers hold 4 doubles a vertex
+// (x, y, z, unused) so that both updates are single 4-wide read-modify-writes.
 struct SpringChunk {
-  const double* x = nullptr;
-  const std::int32_t* lo3 = nullptr;   // lower vertex
-  const std::int32_t* oth3 = nullptr;  // other vertex
+  const double* x = nullptr;  // positions, 3 a vertex
+  const std::uint32_t* lo = nullptr;
+  const std::uint32_t* oth = nullptr;
   const double* rest = nullptr;
   const double* k = nullptr;
-  double *gx = nullptr, *gy = nullptr, *gz = nullptr;  // out: k(l − rest)/l · (x_j − x_i)
+  double* own4 = nullptr;
+  std::size_t firstVertex = 0;
+  double* f4 = nullptr;
+  std::size_t writeLimit = 0;
   std::size_t m = 0;
 };
 // Returns Σ k (l − rest)² over the chunk (twice the energy).
 double springForces(Kernel kern, const SpringChunk& c);
 
 // Integration of nv consecutive vertices (pointers already at the chunk's first
-// vertex; vectors 3 doubles a vertex): v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext −
-// homeK·(x0 − home)) + g)), x1 = x0 + dt·v1, live = (im ≠ 0).
+// vertex; positions and velocities 3 doubles a vertex): the force is f4 + own4 (both
+// 4 a vertex; both zeroed here for the next chunk and step);
+// v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
+// x1 = x0 + dt·v1, live = (im ≠ 0).
 struct FinishChunk {
-  const double *f = nullptr, *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
+  double *f4 = nullptr, *own4 = nullptr;
+  const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
   double *x1 = nullptr, *v1 = nullptr;
   std::size_t nv = 0;
