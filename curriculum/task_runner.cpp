@@ -324,7 +324,8 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   std::size_t fed = 0;
   std::optional<Eigen::Vector3d> lastRaw;  // previous cut point of the stroke (for path crossings)
   int lastObject = -1;
-  mesh::Face hint;  // face of the previous cut point (local search)
+  mesh::Face hint;     // face of the previous cut point (local search)
+  mesh::Face surface;  // the last surface (not wall) face the cut point was on
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
@@ -360,11 +361,18 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     if (d > 1e-3) loc = closestLocation(cm, cp->point, &d);
     if (!cm.isValid(loc.face)) return;
     hint = loc.face;
+    if (cp->object != lastObject) surface = mesh::Face();
     lastObject = cp->object;
-    recorder.contact(cm, loc.face, cp->point);
+    // Under physics a cut's walls retract and the blade's crossing can lie on a groove
+    // wall: the cut path and the crossing test keep to the surface it was cutting (a
+    // wall's normal would project the paths sideways).
+    const auto kind = cm.getFaceProperty<int>(cutting::kFaceKindProp);
+    if (!kind || kind[loc.face] == cutting::kSurface) surface = loc.face;
+    const mesh::Face onSurface = cm.isValid(surface) ? surface : loc.face;
+    recorder.contact(cm, onSurface, cp->point);
     feedCut(t);
     if (lastRaw && cp->object == obj) {
-      const int n = drawn.cutAcross(tissue(), *lastRaw, cp->point, cm.faceNormal(loc.face));
+      const int n = drawn.cutAcross(tissue(), *lastRaw, cp->point, cm.faceNormal(onSurface));
       for (int k = 0; k < n; ++k) live.addPathCrossing(t);
     }
     lastRaw = cp->point;
@@ -476,6 +484,8 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   r.cutStats = engine.stats();
   r.pathGlobalSearches = drawn.globalSearches();
   r.pathFreed = drawn.freedPoints();
+  for (std::size_t i = 0; i < r.drawnAsDrawn.size() && i < task.path.size(); ++i)
+    r.pathMovedMm = std::max(r.pathMovedMm, (r.drawnAsDrawn[i].p - task.path[i].p).norm());
   r.objects = engine.objects().size();
   motion.addStats(r.physics);
   return r;
@@ -513,11 +523,9 @@ nlohmann::json runJson(const Task& task, const RunResult& r) {
   j["cutting"] = {{"engine", "ld::cutting::CutEngine"},           {"triangles_cut", r.cutStats.trianglesCut},
                   {"triangles_added", r.cutStats.trianglesAdded}, {"walk_failures", r.cutStats.walkFailures},
                   {"separations", r.cutStats.separations},        {"objects", r.objects}};
-  j["drawn_path"] = {{"points", r.drawn.size()},
-                     {"pieces", pieces(r.drawn).size()},
-                     {"reembedded", r.pathReembedded},
-                     {"global_searches", r.pathGlobalSearches},
-                     {"freed", r.pathFreed}};
+  j["drawn_path"] = {{"points", r.drawn.size()},       {"pieces", pieces(r.drawn).size()},
+                     {"reembedded", r.pathReembedded}, {"global_searches", r.pathGlobalSearches},
+                     {"freed", r.pathFreed},           {"max_moved_mm", r.pathMovedMm}};
   // The model behind the stretch force (README: curriculum).
   if (r.physics.on) {
     j["stretch_force"]["model"] = "physics";

@@ -74,6 +74,7 @@ struct RunResult {
   std::size_t pathReembedded = 0;      // drawn-path points embedded again after edits
   std::size_t pathGlobalSearches = 0;  // of those, found by a search of the whole mesh
   std::size_t pathFreed = 0;           // drawn-path points on pieces the cut freed
+  double pathMovedMm = 0.0;            // farthest a drawn-path point ended from where it was drawn
   std::vector<SeriesPoint> series;
   std::vector<ForceSample> grasp;  // the grasper's force at each of its samples
   std::size_t samples = 0;

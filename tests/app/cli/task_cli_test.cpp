@@ -76,9 +76,11 @@ TEST(TaskCli, RunsAScriptedExpertAndNovice) {
     auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
                         " --rate 200 --out " + shellQuote(traj));
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj));
+    // A still tissue: the metrics' ranking (physics: RunsWithPhysicsByDefault).
+    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics off");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["physics"]["on"], false);
     for (const char* k :
          {"deviation", "contact_time", "contact_breaks", "path_breaks", "total_time_s", "score", "passed"})
       ASSERT_TRUE(j.contains(k)) << k;
@@ -106,6 +108,44 @@ TEST(TaskCli, RunsAScriptedExpertAndNovice) {
   EXPECT_GT(scores[0], scores[1]);
   EXPECT_LT(deviations[0], deviations[1]);
   EXPECT_GE(bands[0], bands[1]);
+}
+
+TEST(TaskCli, RunsWithPhysicsByDefault) {
+  // The scripted trainees grasp the slab's edge and retract it: the grasper's force
+  // comes from the physics (penalty springs on the held vertices), the novice pulls
+  // harder; --physics off gives the estimate; a bad value is refused.
+  const std::string task = shellQuote((tasks() / "slab-straight-line.json").string());
+  double maxN[2] = {0, 0};
+  for (int level : {0, 2}) {
+    const auto traj = temp("phys" + std::to_string(level) + ".csv");
+    auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
+                        " --rate 250 --out " + shellQuote(traj));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["stretch_force"]["model"], "physics");
+    EXPECT_EQ(j["physics"]["on"], true);
+    EXPECT_EQ(j["physics"]["grasps"].get<int>(), 1);
+    EXPECT_GT(j["physics"]["held_vertices"].get<int>(), 0);
+    EXPECT_GT(j["physics"]["steps"].get<long>(), 1000);
+    EXPECT_EQ(j["physics"]["implicit_fallbacks"].get<long>(), 0);
+    EXPECT_LT(j["physics"]["start_residual_mn"].get<double>(), 1e-9);
+    EXPECT_GT(j["stretch_force"]["mean_n"].get<double>(), 0.0);
+    maxN[level / 2] = j["stretch_force"]["max_n"].get<double>();
+    if (level == 0) {
+      r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics off");
+      ASSERT_EQ(r.exitCode, 0) << r.err;
+      const auto e = nlohmann::json::parse(r.out);
+      EXPECT_NE(e["stretch_force"]["model"].get<std::string>().find("estimate"), std::string::npos);
+      EXPECT_LT(e["stretch_force"]["max_n"].get<double>(), maxN[0]);
+      r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics maybe");
+      EXPECT_EQ(r.exitCode, 2);
+      EXPECT_NE(r.err.find("--physics"), std::string::npos) << r.err;
+    }
+    fs::remove(traj);
+  }
+  EXPECT_LT(maxN[0], maxN[1]);
 }
 
 TEST(TaskCli, RunRefusesBadTrajectory) {
