@@ -753,17 +753,22 @@ void TriangleBvh::refitFaces(const mesh::SurfaceMesh& m, std::span<const Face> f
   refitUpwards(m, dirty_);
 }
 
+inline void TriangleBvh::addVertexLeaves(const mesh::SurfaceMesh& m, Vertex v) {
+  if (!m.isValid(v)) return;
+  const std::uint32_t* slot = faceSlot_.data();
+  const std::size_t nSlots = faceSlot_.size();
+  for (mesh::Edge e : m.edges(v))
+    for (int k = 0; k < 2; ++k) {
+      const Face f = m.face(e, k);  // invalid (all ones) beyond nSlots
+      if (f.idx() >= nSlots || slot[f.idx()] == kNone) continue;
+      addDirty(blockLeaf_[slot[f.idx()] / kLeafCapacity]);
+    }
+}
+
 void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const Vertex> moved) {
   checkMesh(m, "refitVertices");
   beginRefit();
-  for (Vertex v : moved) {
-    if (!m.isValid(v)) continue;
-    for (mesh::Edge e : m.edges(v))
-      for (int k = 0; k < 2; ++k) {
-        const Face f = m.face(e, k);
-        if (f.isValid() && tracks(f)) addDirty(leafOf(f));
-      }
-  }
+  for (Vertex v : moved) addVertexLeaves(m, v);
   finishRefit(m);
 }
 
@@ -771,15 +776,7 @@ void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const std:
   static_assert(sizeof(Vertex) == sizeof(std::uint32_t));
   checkMesh(m, "refitVertices");
   beginRefit();
-  for (std::uint32_t i : moved) {
-    const Vertex v(i);
-    if (!m.isValid(v)) continue;
-    for (mesh::Edge e : m.edges(v))
-      for (int k = 0; k < 2; ++k) {
-        const Face f = m.face(e, k);
-        if (f.isValid() && tracks(f)) addDirty(leafOf(f));
-      }
-  }
+  for (std::uint32_t i : moved) addVertexLeaves(m, Vertex(i));
   finishRefit(m);
 }
 

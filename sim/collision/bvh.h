@@ -200,6 +200,7 @@ class TriangleBvh {
   void beginRefit();
   void addDirty(std::uint32_t node);
   void finishRefit(const mesh::SurfaceMesh& m);
+  void addVertexLeaves(const mesh::SurfaceMesh& m, mesh::Vertex v);
   [[nodiscard]] Box boxOf(std::size_t i) const;
   [[nodiscard]] std::uint32_t leafOf(mesh::Face f) const { return blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity]; }
 
