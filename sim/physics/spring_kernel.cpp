@@ -54,9 +54,9 @@ double springForcesScalar(const SpringChunk& c) {
 }
 
 void finishScalar(const FinishChunk& c, FinishSums& s) {
-  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0;
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0, kv2 = 0;
   for (std::size_t t = 0; t < c.nv; ++t) {
-    const double im = c.invMass[t], m = c.mass[t];
+    const double im = c.invMass[t], m = c.mass[t], kt = c.stiffness[t];
     const bool live = im != 0.0;
     double* f4 = c.f4 + 4 * t;
     double* own4 = c.own4 + 4 * t;
@@ -71,6 +71,7 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
       c.x1[b] = p;
       const double uu = u * u;
       ke1 += m * uu;
+      kv2 += kt * uu;
       v2 += uu;
       maxc = std::max(maxc, uu);
       work += (c.ext[b] + m * c.g[a]) * e;
@@ -84,6 +85,7 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
   s.v2 += v2;
   s.work += work;
   s.maxComp2 = std::max(s.maxComp2, maxc);
+  s.kv2 += kv2;
 }
 
 // ---- AVX2 + FMA: 4 lanes ------------------------------------------------------
@@ -147,14 +149,14 @@ LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
 }
 
 struct Acc2 {
-  __m256d ke, home, v2, work, maxc;
+  __m256d ke, home, v2, work, maxc, kv2;
 };
 
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
 // force from f4 + own4 (4 a vertex, zeroed here), regrouped to 3 a vertex.
 LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, const double* x0, const double* v0,
-                            const double* home, const double* ext, const double* im, const double* mass, double* x1,
-                            double* v1, const __m256d* grav, Acc2& acc) {
+                            const double* home, const double* ext, const double* im, const double* mass,
+                            const double* stiff, double* x1, double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
   __m256d fa[4];
@@ -171,6 +173,9 @@ LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, cons
                           _mm256_permute4x64_pd(imv, 0xFE)};
   const __m256d m3[3] = {_mm256_permute4x64_pd(mv, 0x40), _mm256_permute4x64_pd(mv, 0xA5),
                          _mm256_permute4x64_pd(mv, 0xFE)};
+  const __m256d kv = _mm256_loadu_pd(stiff);
+  const __m256d k3[3] = {_mm256_permute4x64_pd(kv, 0x40), _mm256_permute4x64_pd(kv, 0xA5),
+                         _mm256_permute4x64_pd(kv, 0xFE)};
   for (int r = 0; r < 3; ++r) {
     const __m256d live = _mm256_cmp_pd(im3[r], zero, _CMP_NEQ_OQ);
     const __m256d X = _mm256_loadu_pd(x0 + 4 * r), H = _mm256_loadu_pd(home + 4 * r);
@@ -184,6 +189,7 @@ LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, cons
     _mm256_storeu_pd(x1 + 4 * r, p);
     const __m256d uu = _mm256_mul_pd(u, u);
     acc.ke = _mm256_fmadd_pd(m3[r], uu, acc.ke);
+    acc.kv2 = _mm256_fmadd_pd(k3[r], uu, acc.kv2);
     acc.v2 = _mm256_add_pd(acc.v2, uu);
     acc.maxc = _mm256_max_pd(acc.maxc, uu);
     acc.work = _mm256_fmadd_pd(_mm256_fmadd_pd(m3[r], grav[r], E), e, acc.work);
@@ -194,7 +200,7 @@ LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, cons
 
 LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   const __m256d zero = _mm256_setzero_pd();
-  Acc2 acc{zero, zero, zero, zero, zero};
+  Acc2 acc{zero, zero, zero, zero, zero, zero};
   const __m256d grav[3] = {_mm256_setr_pd(c.g[0], c.g[1], c.g[2], c.g[0]),
                            _mm256_setr_pd(c.g[1], c.g[2], c.g[0], c.g[1]),
                            _mm256_setr_pd(c.g[2], c.g[0], c.g[1], c.g[2])};
@@ -202,12 +208,12 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   for (; t + 4 <= c.nv; t += 4) {
     const std::size_t b = 3 * t;
     finish4(c, c.f4 + 4 * t, c.own4 + 4 * t, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t,
-            c.x1 + b, c.v1 + b, grav, acc);
+            c.stiffness + t, c.x1 + b, c.v1 + b, grav, acc);
   }
   if (t < c.nv) {
     // The last 1–3 vertices through the same lanes, padded with massless zeros.
     const std::size_t rem = c.nv - t, b = 3 * t;
-    double buf[6][12] = {}, f4[16] = {}, own4[16] = {}, im[4] = {}, mass[4] = {};
+    double buf[6][12] = {}, f4[16] = {}, own4[16] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
     const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
     for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
     std::copy(c.f4 + 4 * t, c.f4 + 4 * (t + rem), f4);
@@ -216,7 +222,8 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
     std::fill(c.own4 + 4 * t, c.own4 + 4 * (t + rem), 0.0);
     std::copy(c.invMass + t, c.invMass + t + rem, im);
     std::copy(c.mass + t, c.mass + t + rem, mass);
-    finish4(c, f4, own4, buf[0], buf[1], buf[2], buf[3], im, mass, buf[4], buf[5], grav, acc);
+    std::copy(c.stiffness + t, c.stiffness + t + rem, stiff);
+    finish4(c, f4, own4, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
     std::copy(buf[4], buf[4] + 3 * rem, c.x1 + b);
     std::copy(buf[5], buf[5] + 3 * rem, c.v1 + b);
   }
@@ -225,6 +232,7 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   s.v2 += hsum(acc.v2);
   s.work += hsum(acc.work);
   s.maxComp2 = std::max(s.maxComp2, hmax(acc.maxc));
+  s.kv2 += hsum(acc.kv2);
 }
 
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
@@ -295,11 +303,12 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
                              _mm512_setr_epi64(5, 5, 6, 6, 6, 7, 7, 7)};
   const __m512i regroup[3] = {_mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12),
                               _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14)};
-  __m512d ke = zero, home = zero, v2 = zero, work = zero, maxc = zero;
+  __m512d ke = zero, home = zero, v2 = zero, work = zero, maxc = zero, kv2 = zero;
   for (std::size_t t = 0; t < c.nv; t += 8) {
     const std::size_t rem = std::min<std::size_t>(8, c.nv - t), comps = 3 * rem, b = 3 * t;
     const __mmask8 vm = __mmask8((1u << rem) - 1u);
     const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+    const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
     // Forces of the 8 vertices (f4 + own4, 4 a vertex, zeroed here) regrouped to 3 a vertex.
     __m512d fa[4];
     for (std::size_t u = 0; u < 4; ++u) {
@@ -319,6 +328,7 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
       const __mmask8 mk = __mmask8((1u << cnt) - 1u);
       const std::size_t o = b + lo;
       const __m512d im3 = _mm512_permutexvar_pd(spread[r], imv), m3 = _mm512_permutexvar_pd(spread[r], mv);
+      const __m512d k3 = _mm512_permutexvar_pd(spread[r], kv);
       const __mmask8 live = _mm512_cmp_pd_mask(im3, zero, _CMP_NEQ_OQ);
       const __m512d X = _mm512_maskz_loadu_pd(mk, c.x0 + o), H = _mm512_maskz_loadu_pd(mk, c.home + o);
       const __m512d E = _mm512_maskz_loadu_pd(mk, c.ext + o);
@@ -331,6 +341,7 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
       _mm512_mask_storeu_pd(c.x1 + o, mk, p);
       const __m512d uu = _mm512_mul_pd(u, u);
       ke = _mm512_fmadd_pd(m3, uu, ke);
+      kv2 = _mm512_fmadd_pd(k3, uu, kv2);
       v2 = _mm512_add_pd(v2, uu);
       maxc = _mm512_max_pd(maxc, uu);
       work = _mm512_fmadd_pd(_mm512_fmadd_pd(m3, grav[r], E), e, work);
@@ -343,6 +354,7 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
   s.v2 += _mm512_reduce_add_pd(v2);
   s.work += _mm512_reduce_add_pd(work);
   s.maxComp2 = std::max(s.maxComp2, _mm512_reduce_max_pd(maxc));
+  s.kv2 += _mm512_reduce_add_pd(kv2);
 }
 
 #endif  // LD_X86_KERNELS

@@ -54,16 +54,17 @@ struct FinishChunk {
   double *f4 = nullptr, *own4 = nullptr;
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
+  const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
   std::size_t nv = 0;
   double dt = 0, damp = 1, homeK = 0;
   double g[3] = {0, 0, 0};
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
-// Σ |v1|², Σ (ext + m·g)·(x1 − x0), and the largest squared velocity component
-// (3 × it bounds the largest |v1|²).
+// Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it
+// bounds the largest |v1|²), and Σ stiffness·|v1|² (bounds the spring energy change).
 struct FinishSums {
-  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0;
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0;
 };
 void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s);
 
