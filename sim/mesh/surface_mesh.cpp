@@ -200,17 +200,6 @@ Face SurfaceMesh::newFace() {
   return Face(facesSize() - 1);
 }
 
-Edge SurfaceMesh::findEdge(Vertex a, Vertex b) const {
-  const auto& ea = vedges_[a];
-  const auto& eb = vedges_[b];
-  const auto& shorter = ea.size() <= eb.size() ? ea : eb;
-  for (Edge e : shorter) {
-    const auto& ev = everts_[e];
-    if ((ev[0] == a && ev[1] == b) || (ev[0] == b && ev[1] == a)) return e;
-  }
-  return Edge();
-}
-
 bool SurfaceMesh::runsForward(Face f, Edge e) const {
   const auto& fv = fverts_[f];
   const auto& ev = everts_[e];
@@ -309,7 +298,7 @@ void SurfaceMesh::deleteFace(Face f) {
 void SurfaceMesh::deleteVertex(Vertex v) {
   check(v, "deleteVertex");
   auto& around = scratch_.around;
-  facesInto(v, around);
+  faces(v, around);
   for (Face f : around) deleteFace(f);
   vdeleted_[v] = true;
   ++deletedVertices_;
@@ -386,12 +375,12 @@ Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
 
 std::vector<Face> SurfaceMesh::faces(Vertex v) const {
   std::vector<Face> out;
-  facesInto(v, out);
+  faces(v, out);
   return out;
 }
 
 // Valences are small: a linear search in a short, hot array beats a set.
-void SurfaceMesh::facesInto(Vertex v, std::vector<Face>& out) const {
+void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
   out.clear();
   for (Edge e : vedges_[v])
     for (Face f : efaces_[e])
@@ -402,7 +391,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   check(v, "splitVertex");
   if (fan.empty()) return Vertex();
   std::vector<Face>& around = scratch_.around;
-  facesInto(v, around);
+  faces(v, around);
   for (std::size_t i = 0; i < fan.size(); ++i) {
     if (!isValid(fan[i]) || std::find(around.begin(), around.end(), fan[i]) == around.end()) return Vertex();
     for (std::size_t j = 0; j < i; ++j)
@@ -494,7 +483,7 @@ Vertex SurfaceMesh::splitOff(Vertex v, Face f0, Face f1, Edge ignore) {
   auto& around = scratch_.sepAround;
   auto& group = scratch_.sepGroup;
   auto& fan = scratch_.sepFan;
-  facesInto(v, around);
+  faces(v, around);
   fanGroups(v, around, ignore, group);
   auto groupOf = [&](Face f) {
     return group[static_cast<std::size_t>(std::find(around.begin(), around.end(), f) - around.begin())];
@@ -566,44 +555,6 @@ Compaction SurfaceMesh::garbageCollection() {
 }
 
 // ---- queries ---------------------------------------------------------------------
-
-bool SurfaceMesh::isBoundary(Vertex v) const {
-  for (Edge e : vedges_[v])
-    if (isBoundary(e)) return true;
-  return false;
-}
-
-Vertex SurfaceMesh::otherVertex(Edge e, Vertex v) const {
-  const auto& ev = everts_[e];
-  return ev[0] == v ? ev[1] : (ev[1] == v ? ev[0] : Vertex());
-}
-
-Face SurfaceMesh::otherFace(Edge e, Face f) const {
-  const auto& ef = efaces_[e];
-  return ef[0] == f ? ef[1] : (ef[1] == f ? ef[0] : Face());
-}
-
-Vertex SurfaceMesh::oppositeVertex(Face f, Edge e) const {
-  const int i = localIndex(f, e);
-  return i < 0 ? Vertex() : fverts_[f][static_cast<std::size_t>((i + 2) % 3)];
-}
-
-Edge SurfaceMesh::oppositeEdge(Face f, Vertex v) const {
-  const int i = localIndex(f, v);
-  return i < 0 ? Edge() : fedges_[f][static_cast<std::size_t>((i + 1) % 3)];
-}
-
-int SurfaceMesh::localIndex(Face f, Vertex v) const {
-  for (int i = 0; i < 3; ++i)
-    if (fverts_[f][static_cast<std::size_t>(i)] == v) return i;
-  return -1;
-}
-
-int SurfaceMesh::localIndex(Face f, Edge e) const {
-  for (int i = 0; i < 3; ++i)
-    if (fedges_[f][static_cast<std::size_t>(i)] == e) return i;
-  return -1;
-}
 
 bool SurfaceMesh::isClosed() const {
   if (nFaces() == 0) return false;

@@ -207,6 +207,8 @@ class SurfaceMesh {
   [[nodiscard]] Face face(Edge e, int i) const { return efaces_[e][static_cast<std::size_t>(i)]; }
   [[nodiscard]] const std::vector<Edge>& edges(Vertex v) const { return vedges_[v]; }
   [[nodiscard]] std::vector<Face> faces(Vertex v) const;  // incident faces, each once
+  // The same into a caller's buffer (cleared first), so that a loop need not allocate.
+  void faces(Vertex v, std::vector<Face>& out) const;
   [[nodiscard]] std::size_t valence(Vertex v) const { return vedges_[v].size(); }
   [[nodiscard]] bool isIsolated(Vertex v) const { return vedges_[v].empty(); }
   [[nodiscard]] bool isBoundary(Edge e) const { return !efaces_[e][1].isValid(); }
@@ -303,8 +305,6 @@ class SurfaceMesh {
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
   [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
-  // The faces of v as faces(v) lists them, into `out` (cleared first).
-  void facesInto(Vertex v, std::vector<Face>& out) const;
   // Per face of `around` (the faces of v): into `group`, a label shared by faces
   // connected through edges at v other than `ignore`.
   void fanGroups(Vertex v, const std::vector<Face>& around, Edge ignore, std::vector<int>& group) const;
@@ -342,5 +342,56 @@ class SurfaceMesh {
   };
   Scratch scratch_;
 };
+
+// Small connectivity queries, inline: the cutter and the collision code call them in
+// their inner loops.
+inline Edge SurfaceMesh::findEdge(Vertex a, Vertex b) const {
+  const auto& ea = vedges_[a];
+  const auto& eb = vedges_[b];
+  const auto& shorter = ea.size() <= eb.size() ? ea : eb;
+  for (Edge e : shorter) {
+    const auto& ev = everts_[e];
+    if ((ev[0] == a && ev[1] == b) || (ev[0] == b && ev[1] == a)) return e;
+  }
+  return Edge();
+}
+
+inline bool SurfaceMesh::isBoundary(Vertex v) const {
+  for (Edge e : vedges_[v])
+    if (isBoundary(e)) return true;
+  return false;
+}
+
+inline Vertex SurfaceMesh::otherVertex(Edge e, Vertex v) const {
+  const auto& ev = everts_[e];
+  return ev[0] == v ? ev[1] : (ev[1] == v ? ev[0] : Vertex());
+}
+
+inline Face SurfaceMesh::otherFace(Edge e, Face f) const {
+  const auto& ef = efaces_[e];
+  return ef[0] == f ? ef[1] : (ef[1] == f ? ef[0] : Face());
+}
+
+inline Vertex SurfaceMesh::oppositeVertex(Face f, Edge e) const {
+  const int i = localIndex(f, e);
+  return i < 0 ? Vertex() : fverts_[f][static_cast<std::size_t>((i + 2) % 3)];
+}
+
+inline Edge SurfaceMesh::oppositeEdge(Face f, Vertex v) const {
+  const int i = localIndex(f, v);
+  return i < 0 ? Edge() : fedges_[f][static_cast<std::size_t>((i + 1) % 3)];
+}
+
+inline int SurfaceMesh::localIndex(Face f, Vertex v) const {
+  for (int i = 0; i < 3; ++i)
+    if (fverts_[f][static_cast<std::size_t>(i)] == v) return i;
+  return -1;
+}
+
+inline int SurfaceMesh::localIndex(Face f, Edge e) const {
+  for (int i = 0; i < 3; ++i)
+    if (fedges_[f][static_cast<std::size_t>(i)] == e) return i;
+  return -1;
+}
 
 }  // namespace ld::mesh

@@ -588,6 +588,18 @@ TEST(SurfaceMesh, CopiesKeepEdgeListsInOrder) {
   EXPECT_VALID(copy);
 }
 
+TEST(SurfaceMesh, FacesIntoABufferListLikeFaces) {
+  SurfaceMesh m = grid(3);
+  m.splitFace(Face(7), m.centroid(Face(7)));
+  std::vector<Face> buffer{Face(99)};  // stale contents are dropped
+  for (Vertex v : m.vertices()) {
+    m.faces(v, buffer);
+    EXPECT_EQ(buffer, m.faces(v)) << v;
+  }
+  m.faces(Vertex(5), buffer);
+  EXPECT_EQ(buffer.size(), 6u);
+}
+
 // The numbering of what edits create is behaviour (see edit_fingerprint.h): this
 // value was computed with the mesh before its edits were made allocation-free.
 TEST(SurfaceMesh, EditsNumberNewElementsAsBefore) {
