@@ -411,10 +411,8 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
 inline const double* raw(const Vec3* p) { return p->data(); }
 inline double* raw(Vec3* p) { return p->data(); }
 
-// Per-thread scratch: a chunk's own-spring sums (4 a vertex, zero between chunks),
-// room for the crossing springs' rest and k, and their end indices.
+// Per-thread scratch for the crossing springs: rest, k and end indices.
 struct ChunkScratch {
-  double* own4;
   double *rest, *k;
   std::uint32_t *lo, *oth;
   std::size_t cap;
@@ -428,17 +426,16 @@ ChunkScratch chunkScratch(std::vector<double>& buf) {
     oth.assign(cap, 0);
   }
   double* s = buf.data();
-  return {s, s + 4 * cap, s + 5 * cap, lo.data(), oth.data(), cap};
+  return {s, s + cap, lo.data(), oth.data(), cap};
 }
 
 // The spring sweep over the vertices [vBegin, vEnd) at positions x, in chunks of
 // vertices whose springs fit the scratch. The kernel adds each spring's force to its
-// lower vertex's chunk-local sum (sc.own4) and subtracts it from the far end's slot
-// in f4 (only below writeLimit: the first of two threads leaves the crossing springs'
-// far ends to the second). Every spring touching a chunk's vertices from below was
-// done in an earlier chunk, so a vertex's force is then f4 + own4:
-// done(v0, v1) integrates the chunk and zeroes both for the next chunk and sweep.
-// Returns the energy of the sweep's springs.
+// lower vertex's slot in f4 and subtracts it from the far end's (only below
+// writeLimit: the first of two threads leaves the crossing springs' far ends to the
+// second). Every spring touching a chunk's vertices from below was done earlier (in
+// spring order), so their forces are then complete: done(v0, v1) integrates the
+// chunk and zeroes their slots for the next sweep. Returns the sweep's spring energy.
 template <class ChunkDone>
 double springSweep(const View& w, detail::Kernel kern, const double* x, double* f4, const ChunkScratch& sc,
                    std::size_t vBegin, std::size_t vEnd, std::size_t writeLimit, ChunkDone&& done) {
@@ -457,8 +454,6 @@ double springSweep(const View& w, detail::Kernel kern, const double* x, double* 
     ch.oth = w.other + sBase;
     ch.rest = w.rest + sBase;
     ch.k = w.k + sBase;
-    ch.own4 = sc.own4;
-    ch.firstVertex = v0;
     ch.f4 = f4;
     ch.writeLimit = writeLimit;
     ch.m = first[v1] - sBase;
@@ -489,6 +484,7 @@ void crossSprings(const View& w, detail::Kernel kern, const std::uint32_t* list,
     ch.oth = sc.oth;
     ch.rest = sc.rest;
     ch.k = sc.k;
+    ch.addLower = false;
     ch.f4 = f4;
     ch.writeLimit = w.n;
     ch.m = m;
@@ -534,10 +530,8 @@ PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec
       added + springSweep(w, detail::activeKernel(), raw(x), acc, sc, 0, w.n, w.n, [&](std::size_t v0, std::size_t v1) {
         for (std::size_t i = v0; i < v1; ++i) {
           double* fa = acc + 4 * i;
-          double* own = sc.own4 + 4 * (i - v0);
-          const Vec3 fs(fa[0] + own[0], fa[1] + own[1], fa[2] + own[2]);
+          const Vec3 fs(fa[0], fa[1], fa[2]);
           std::fill_n(fa, 4, 0.0);
-          std::fill_n(own, 4, 0.0);
           if (w.invMass[i] == 0.0) {
             f[i].setZero();
             continue;
@@ -690,7 +684,6 @@ SweepSums symplecticSweep(const SymplecticArgs& a, const ChunkScratch& sc, std::
       springSweep(w, a.kernel, raw(a.x0), a.f4, sc, vBegin, vEnd, writeLimit, [&](std::size_t v0, std::size_t v1) {
         const std::size_t b = 3 * v0;
         fc.f4 = a.f4 + 4 * v0;
-        fc.own4 = sc.own4;
         fc.x0 = raw(a.x0) + b;
         fc.v0 = raw(a.v0) + b;
         fc.home = raw(w.home) + b;

@@ -37,8 +37,8 @@ double springForcesScalar(const SpringChunk& c) {
     pe += kst * st;
     const double q = l > 0.0 ? kst / l : 0.0;
     const double gx = q * dx, gy = q * dy, gz = q * dz;
-    if (c.own4) {
-      double* o = c.own4 + 4 * (i - c.firstVertex);
+    if (c.addLower) {
+      double* o = c.f4 + 4 * i;
       o[0] += gx;
       o[1] += gy;
       o[2] += gz;
@@ -59,11 +59,10 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
     const double im = c.invMass[t], m = c.mass[t], kt = c.stiffness[t];
     const bool live = im != 0.0;
     double* f4 = c.f4 + 4 * t;
-    double* own4 = c.own4 + 4 * t;
     for (std::size_t a = 0; a < 3; ++a) {
       const std::size_t b = 3 * t + a;
       const double h = c.x0[b] - c.home[b];
-      const double acc = ((f4[a] + own4[a]) + c.ext[b]) - c.homeK * h;
+      const double acc = (f4[a] + c.ext[b]) - c.homeK * h;
       const double u = live ? c.damp * c.v0[b] + c.dt * (im * acc + c.g[a]) : 0.0;
       const double e = c.dt * u;
       const double p = c.x0[b] + e;
@@ -78,7 +77,6 @@ void finishScalar(const FinishChunk& c, FinishSums& s) {
       if (live) home1 += (p - c.home[b]) * (p - c.home[b]);
     }
     std::fill_n(f4, 4, 0.0);
-    std::fill_n(own4, 4, 0.0);
   }
   s.ke1 += ke1;
   s.home1 += home1;
@@ -103,8 +101,8 @@ LD_AVX2 inline double hmax(__m256d v) {
 
 // One spring's force (x, y, z, 0) into its lower vertex's sum and out of its far end.
 LD_AVX2 inline void applySpring(const SpringChunk& c, std::size_t a, __m256d g) {
-  if (c.own4) {
-    double* o = c.own4 + 4 * (c.lo[a] - c.firstVertex);
+  if (c.addLower) {
+    double* o = c.f4 + 4 * std::size_t{c.lo[a]};
     _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), g));
   }
   if (c.oth[a] < c.writeLimit) {
@@ -153,17 +151,16 @@ struct Acc2 {
 };
 
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
-// force from f4 + own4 (4 a vertex, zeroed here), regrouped to 3 a vertex.
-LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, double* own4, const double* x0, const double* v0,
-                            const double* home, const double* ext, const double* im, const double* mass,
-                            const double* stiff, double* x1, double* v1, const __m256d* grav, Acc2& acc) {
+// force from f4 (4 a vertex, zeroed here), regrouped to 3 a vertex.
+LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, const double* x0, const double* v0, const double* home,
+                            const double* ext, const double* im, const double* mass, const double* stiff, double* x1,
+                            double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
   __m256d fa[4];
   for (int u = 0; u < 4; ++u) {
-    fa[u] = _mm256_add_pd(_mm256_loadu_pd(f4 + 4 * u), _mm256_loadu_pd(own4 + 4 * u));
+    fa[u] = _mm256_loadu_pd(f4 + 4 * u);
     _mm256_storeu_pd(f4 + 4 * u, zero);
-    _mm256_storeu_pd(own4 + 4 * u, zero);
   }
   const __m256d F[3] = {_mm256_blend_pd(fa[0], _mm256_permute4x64_pd(fa[1], 0x00), 0x8),
                         _mm256_blend_pd(_mm256_permute4x64_pd(fa[1], 0x09), _mm256_permute4x64_pd(fa[2], 0x40), 0xC),
@@ -207,23 +204,21 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   std::size_t t = 0;
   for (; t + 4 <= c.nv; t += 4) {
     const std::size_t b = 3 * t;
-    finish4(c, c.f4 + 4 * t, c.own4 + 4 * t, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t,
-            c.stiffness + t, c.x1 + b, c.v1 + b, grav, acc);
+    finish4(c, c.f4 + 4 * t, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t, c.stiffness + t,
+            c.x1 + b, c.v1 + b, grav, acc);
   }
   if (t < c.nv) {
     // The last 1–3 vertices through the same lanes, padded with massless zeros.
     const std::size_t rem = c.nv - t, b = 3 * t;
-    double buf[6][12] = {}, f4[16] = {}, own4[16] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
+    double buf[6][12] = {}, f4[16] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
     const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
     for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
     std::copy(c.f4 + 4 * t, c.f4 + 4 * (t + rem), f4);
-    std::copy(c.own4 + 4 * t, c.own4 + 4 * (t + rem), own4);
     std::fill(c.f4 + 4 * t, c.f4 + 4 * (t + rem), 0.0);
-    std::fill(c.own4 + 4 * t, c.own4 + 4 * (t + rem), 0.0);
     std::copy(c.invMass + t, c.invMass + t + rem, im);
     std::copy(c.mass + t, c.mass + t + rem, mass);
     std::copy(c.stiffness + t, c.stiffness + t + rem, stiff);
-    finish4(c, f4, own4, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
+    finish4(c, f4, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
     std::copy(buf[4], buf[4] + 3 * rem, c.x1 + b);
     std::copy(buf[5], buf[5] + 3 * rem, c.v1 + b);
   }
@@ -238,8 +233,8 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
 
 LD_AVX512 inline void applySpring512(const SpringChunk& c, std::size_t a, __m256d g) {
-  if (c.own4) {
-    double* o = c.own4 + 4 * (c.lo[a] - c.firstVertex);
+  if (c.addLower) {
+    double* o = c.f4 + 4 * std::size_t{c.lo[a]};
     _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), g));
   }
   if (c.oth[a] < c.writeLimit) {
@@ -309,15 +304,13 @@ LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
     const __mmask8 vm = __mmask8((1u << rem) - 1u);
     const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
     const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
-    // Forces of the 8 vertices (f4 + own4, 4 a vertex, zeroed here) regrouped to 3 a vertex.
+    // Forces of the 8 vertices (f4, 4 a vertex, zeroed here) regrouped to 3 a vertex.
     __m512d fa[4];
     for (std::size_t u = 0; u < 4; ++u) {
       const __mmask8 two = __mmask8((rem > 2 * u ? 0x0Fu : 0u) | (rem > 2 * u + 1 ? 0xF0u : 0u));
       double* f4 = c.f4 + 4 * t + 8 * u;
-      double* own4 = c.own4 + 4 * t + 8 * u;
-      fa[u] = _mm512_add_pd(_mm512_maskz_loadu_pd(two, f4), _mm512_maskz_loadu_pd(two, own4));
+      fa[u] = _mm512_maskz_loadu_pd(two, f4);
       _mm512_mask_storeu_pd(f4, two, zero);
-      _mm512_mask_storeu_pd(own4, two, zero);
     }
     const __m512d F[3] = {_mm512_permutex2var_pd(fa[0], regroup[0], fa[1]),
                           _mm512_permutex2var_pd(fa[1], regroup[1], fa[2]),

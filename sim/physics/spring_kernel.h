@@ -26,18 +26,17 @@ enum class Kernel { Scalar, Avx2, Avx512 };
 bool forceKernel(std::optional<Kernel> k);
 
 // Springs [0, m) of one chunk (vertex indices of both ends, rest, k). Each spring's
-// force g = k(l − rest)/l · (x_j − x_i) is added, in spring order, to its lower
-// vertex's chunk-local sum own4[4·(i − firstVertex)] (unless own4 is null) and
-// subtracted from f4[4·j] when j < writeLimit. Force buffers hold 4 doubles a vertex
-// (x, y, z, unused) so that both updates are single 4-wide read-modify-writes.
+// force g = k(l − rest)/l · (x_j − x_i) is added to f4[4·i] (unless addLower is off)
+// and subtracted from f4[4·j] when j < writeLimit, in spring order. The force buffer
+// holds 4 doubles a vertex (x, y, z, unused) so that each update is one 4-wide
+// read-modify-write.
 struct SpringChunk {
   const double* x = nullptr;  // positions, 3 a vertex
   const std::uint32_t* lo = nullptr;
   const std::uint32_t* oth = nullptr;
   const double* rest = nullptr;
   const double* k = nullptr;
-  double* own4 = nullptr;
-  std::size_t firstVertex = 0;
+  bool addLower = true;
   double* f4 = nullptr;
   std::size_t writeLimit = 0;
   std::size_t m = 0;
@@ -46,12 +45,12 @@ struct SpringChunk {
 double springForces(Kernel kern, const SpringChunk& c);
 
 // Integration of nv consecutive vertices (pointers already at the chunk's first
-// vertex; positions and velocities 3 doubles a vertex): the force is f4 + own4 (both
-// 4 a vertex; both zeroed here for the next chunk and step);
+// vertex; positions and velocities 3 doubles a vertex): the force is f4 (4 a vertex;
+// zeroed here for the next step);
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
 // x1 = x0 + dt·v1, live = (im ≠ 0).
 struct FinishChunk {
-  double *f4 = nullptr, *own4 = nullptr;
+  double* f4 = nullptr;
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
   const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
