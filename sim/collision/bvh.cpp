@@ -941,7 +941,10 @@ void TriangleBvh::removeFaces(const mesh::SurfaceMesh& m, std::span<const Face> 
 }
 
 SyncResult TriangleBvh::remap(const mesh::SurfaceMesh& m, const mesh::Compaction& c) {
-  if (!built_) {
+  // Already on this layout (synced since): the maps are stale, the tree is not.
+  if (built_ && m.layoutVersion() == seenLayout_) return sync(m);
+  // Maps from a mesh other than the one the tree knew: start over.
+  if (!built_ || c.faceMap.size() < seenFaces_) {
     build(m);
     return SyncResult::Rebuilt;
   }

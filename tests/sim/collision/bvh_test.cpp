@@ -459,6 +459,9 @@ TEST(TriangleBvh, RemapAfterCompactionKeepsTheTree) {
   const mesh::Compaction c2 = m2.garbageCollection();
   EXPECT_EQ(t2.remap(m2, c2), SyncResult::Local);
   EXPECT_EQ(t2.check(m2), "");
+  // A second remap with the same (now stale) maps changes nothing.
+  EXPECT_EQ(t2.remap(m2, c2), SyncResult::Unchanged);
+  EXPECT_EQ(t2.check(m2), "");
   expectBvhMatchesBruteForce(m2, t2, src, testing::scaled(50));
 }
 
