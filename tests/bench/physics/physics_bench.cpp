@@ -1,6 +1,7 @@
 // Step cost of each integrator on slabs of 1k, 10k, 100k and 1M triangles (time per
 // step and ns per spring, CPU time of the stepping thread); the symplectic step on
-// one and two threads, with and without the stability monitor; the symplectic step of
+// one and two threads, with and without the stability monitor, and on each compiled
+// kernel path (scalar, AVX2, AVX-512: BM_SymplecticKernel); the symplectic step of
 // the default slab before and after ~1000 triangles cut with the CutEngine (stepped
 // in place on the engine's mesh); the cost of a topology edit to the physics.
 //   physics_bench                                     (all, about a minute)
