@@ -193,5 +193,40 @@ TEST(CollisionWorld, SweepOfAFastScalpelStrokeFindsTopAndBottomLayers) {
   EXPECT_EQ(top, bottom);  // the same cut line on both layers
 }
 
+// An active region reported as vertex indices, then a compaction handed over as
+// maps: the world's queries follow both without a rebuild.
+TEST(CollisionWorld, RegionRefitByIndicesAndRemapAfterCompaction) {
+  auto sheet = std::make_unique<mesh::SurfaceMesh>(testing::grid(20));  // z = 0, x, y in [0, 20]
+  CollisionWorld world;
+  const ObjectId id = world.add(*sheet);
+  std::vector<std::uint32_t> region;
+  for (mesh::Vertex v : sheet->vertices())
+    if ((sheet->position(v).head<2>() - Eigen::Vector2d(10, 10)).norm() < 3.0) {
+      sheet->position(v).z() = 2.0;  // lifted
+      region.push_back(static_cast<std::uint32_t>(v.idx()));
+    }
+  world.refitVertices(id, std::span<const std::uint32_t>(region));
+  EXPECT_EQ(world.bvh(id).check(*sheet), "");
+  auto hits = world.intersectSegment(Vector3d(10.3, 10.2, 3.0), Vector3d(10.3, 10.2, 1.0));
+  ASSERT_EQ(hits.size(), 1u);
+  EXPECT_TRUE(near(hits[0].hit.point.z(), 2.0, 1e-12));
+  // Cut away the first column of faces (all corners at x < 2), compact, remap.
+  for (mesh::Face f : sheet->faces())
+    if (sheet->position(sheet->vertices(f)[0]).x() < 2.0 && sheet->position(sheet->vertices(f)[1]).x() < 2.0 &&
+        sheet->position(sheet->vertices(f)[2]).x() < 2.0)
+      sheet->deleteFace(f);
+  for (mesh::Vertex v : sheet->vertices())
+    if (sheet->isIsolated(v)) sheet->deleteVertex(v);
+  const mesh::Compaction c = sheet->garbageCollection();
+  EXPECT_EQ(world.remap(id, c), SyncResult::Local);
+  EXPECT_EQ(world.bvh(id).stats().builds, 1u);
+  EXPECT_EQ(world.bvh(id).check(*sheet), "");
+  EXPECT_TRUE(world.intersectSegment(Vector3d(0.6, 5.2, 1.0), Vector3d(0.6, 5.2, -1.0)).empty());
+  EXPECT_EQ(world.intersectSegment(Vector3d(1.6, 5.2, 1.0), Vector3d(1.6, 5.2, -1.0)).size(), 1u);
+  hits = world.intersectSegment(Vector3d(10.3, 10.2, 3.0), Vector3d(10.3, 10.2, 1.0));
+  ASSERT_EQ(hits.size(), 1u);
+  EXPECT_EQ(hits[0].hit.face, intersectSegment(*sheet, Vector3d(10.3, 10.2, 3.0), Vector3d(10.3, 10.2, 1.0))[0].face);
+}
+
 }  // namespace
 }  // namespace ld::collision
