@@ -1,7 +1,7 @@
 // lapdissect: the desktop program.
 //   lapdissect [--model FILE] [--db URL] [--wireframe] [--no-physics]
 //              [--screenshot OUT.png [--size WxH] [--whole-window] [--zoom STEPS] [--orbit YAW,PITCH]
-//               [--physics [--push X,Y,Z,FX,FY,FZ] [--cut X0,Y0,X1,Y1[,...]:DEPTH]...
+//               [--physics [--push X,Y,Z,FX,FY,FZ] [--cut X0,Y0,X1,Y1[,...]:DEPTH]... [--cut-speed MM/S] [--cut-live]
 //                          [--drag-piece DX,DY,DZ] [--show-scalpel] [--sim-time S]]]
 // With --physics the screenshot is taken after the tissue has settled and run for
 // --sim-time simulated seconds (with the --push force at the vertex nearest X,Y,Z,
@@ -173,11 +173,20 @@ int main(int argc, char** argv) {
       QStringLiteral("YAW,PITCH"));
   const QCommandLineOption scalpelOpt(QStringLiteral("show-scalpel"),
                                       QStringLiteral("With --cut: draw the scalpel where the last stroke ended."));
+  const QCommandLineOption cutSpeedOpt(
+      QStringLiteral("cut-speed"),
+      QStringLiteral("With --cut: move the scalpel at this speed [mm/s], the simulation running between samples as "
+                     "under a hand (default 0: each stroke at once, between two steps)."),
+      QStringLiteral("MM/S"), QStringLiteral("0"));
+  const QCommandLineOption cutLiveOpt(
+      QStringLiteral("cut-live"),
+      QStringLiteral("With --cut: keep simulating while the blade is in the tissue (default: the tissue is held still "
+                     "during a stroke and opens when the blade lifts)."));
   const QCommandLineOption simTimeOpt(QStringLiteral("sim-time"),
                                       QStringLiteral("With --physics: simulated seconds after settling (default 0.5)."),
                                       QStringLiteral("S"), QStringLiteral("0.5"));
   parser.addOptions({modelOpt, shotOpt, sizeOpt, windowOpt, wireOpt, dbOpt, noPhysicsOpt, physicsOpt, pushOpt, cutOpt,
-                     dragOpt, simTimeOpt, zoomOpt, orbitOpt, scalpelOpt});
+                     dragOpt, simTimeOpt, zoomOpt, orbitOpt, scalpelOpt, cutSpeedOpt, cutLiveOpt});
   if (!parser.parse(QApplication::arguments())) {
     printError(parser.errorText());
     return kBadInput;
@@ -220,6 +229,13 @@ int main(int argc, char** argv) {
     }
     strokes.push_back(*stroke);
   }
+  bool cutSpeedOk = false;
+  const double cutSpeed = parser.value(cutSpeedOpt).toDouble(&cutSpeedOk);
+  if (!cutSpeedOk || !(cutSpeed >= 0.0) || cutSpeed > 10000.0 || (parser.isSet(cutSpeedOpt) && strokes.empty())) {
+    printError(QStringLiteral("--cut-speed: '%1' is not a speed in [0, 10000] mm/s given with --cut")
+                   .arg(parser.value(cutSpeedOpt)));
+    return kBadInput;
+  }
   std::optional<QVector3D> drag;
   if (parser.isSet(dragOpt)) {
     const auto d = numbers(parser.value(dragOpt));
@@ -245,7 +261,12 @@ int main(int argc, char** argv) {
     return kBadInput;
   }
 
+  if (parser.isSet(cutLiveOpt) && strokes.empty()) {
+    printError(QStringLiteral("--cut-live: only together with --cut"));
+    return kBadInput;
+  }
   ld::gui::MainWindow window;
+  window.setHoldWhileCutting(!parser.isSet(cutLiveOpt));
   window.setDatabaseUrl(parser.value(dbOpt));
   window.view()->setWireframe(parser.isSet(wireOpt));
   window.setPhysicsEnabled(physics);
@@ -329,7 +350,7 @@ int main(int argc, char** argv) {
           if (pushed) pushedFrom = window.view()->mesh().positions[*pushed];
         }
         for (const Stroke& s : strokes)
-          if (!window.cutStroke(s.points, s.depth)) {
+          if (!window.cutStroke(s.points, s.depth, cutSpeed)) {
             printError(QStringLiteral("--cut: this build has no cutting module (ld_sim_cutting)"));
             rc = kBadInput;
             QApplication::quit();
@@ -375,8 +396,15 @@ int main(int argc, char** argv) {
       if (pushed)
         for (std::size_t a = 0; a < 3; ++a)
           moved[a] = static_cast<double>(shown.positions[*pushed][a]) - static_cast<double>(pushedFrom[a]);
+      const auto st = session->stats();
       std::printf(
-          "{\"settled\":true,\"settle_sim_time_s\":%.4f,\"sim_time_s\":%.4f,\"min_z\":%.4f,\"max_z\":%.4f,"
+          "{\"step_us_mean\":%.1f,\"step_us_max\":%.1f,\"steps\":%llu,\"late_steps\":%llu,\"nan_frames\":%llu,"
+          "\"stability_warnings\":%llu,",
+          st.meanStepUs, st.maxStepUs, static_cast<unsigned long long>(st.steps),
+          static_cast<unsigned long long>(st.late), static_cast<unsigned long long>(st.nanFrames),
+          static_cast<unsigned long long>(st.warnings));
+      std::printf(
+          "\"settled\":true,\"settle_sim_time_s\":%.4f,\"sim_time_s\":%.4f,\"min_z\":%.4f,\"max_z\":%.4f,"
           "\"pushed_displacement\":[%.4f,%.4f,%.4f],\"vertices\":%zu,\"triangles\":%zu,\"cut_wall_triangles\":%zu,"
           "\"triangles_cut\":%ld,\"objects\":%zu,\"objects_after_cuts\":%zu,\"status\":\"%s\"}\n",
           startTime, session->simTime(), static_cast<double>(b.min[2]), static_cast<double>(b.max[2]), moved[0],

@@ -84,22 +84,18 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   connect(view_, &MeshView::cutStarted, this, [this](const QVector3D& p, const QVector3D& n) {
     cutting_ = true;
     cutLast_ = p;
+    cutCursor_ = p;
     cutNormal_ = n;
   });
   connect(view_, &MeshView::cutMoved, this, [this](const QVector3D& p) {
-#ifdef LD_GUI_HAVE_PHYSICS
+    cutCursor_ = p;
     // Samples every half millimetre or more: the engine sub-samples long moves itself.
-    if (!physics_ || !cutting_ || (p - cutLast_).length() < 0.5F) return;
-    const QVector3D motion = p - cutLast_;
-    physics_->cutSample(Eigen::Vector3d(p.x(), p.y(), p.z()),
-                        Eigen::Vector3d(cutNormal_.x(), cutNormal_.y(), cutNormal_.z()),
-                        Eigen::Vector3d(motion.x(), motion.y(), motion.z()), view_->cutDepth());
-    cutLast_ = p;
-#else
-    (void)p;
-#endif
+    if (cutting_ && (p - cutLast_).length() >= 0.5F) sendCutSample(p);
   });
   connect(view_, &MeshView::cutEnded, this, [this] {
+    // The cursor's last stretch, however short, is cut too: a stroke released just past
+    // the rim must reach it, or the piece it should free stays attached.
+    if (cutting_ && (cutCursor_ - cutLast_).length() > 1e-3F) sendCutSample(cutCursor_);
     cutting_ = false;
 #ifdef LD_GUI_HAVE_PHYSICS
     if (physics_) physics_->endCut();
@@ -138,33 +134,48 @@ void MainWindow::restartPhysics() {
     return;
   }
   physics_ = std::make_unique<PhysicsSession>(*original_);
+  physics_->setHoldWhileCutting(holdWhileCutting_);
   frameTimer_->start();
 #endif
+}
+
+void MainWindow::sendCutSample(const QVector3D& p) {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (!physics_) return;
+  const QVector3D motion = p - cutLast_;
+  physics_->cutSample(Eigen::Vector3d(p.x(), p.y(), p.z()),
+                      Eigen::Vector3d(cutNormal_.x(), cutNormal_.y(), cutNormal_.z()),
+                      Eigen::Vector3d(motion.x(), motion.y(), motion.z()), view_->cutDepth());
+#endif
+  cutLast_ = p;
 }
 
 bool MainWindow::cutAcrossTop(double x0, double y0, double x1, double y1, double depth) {
   return cutStroke({QPointF(x0, y0), QPointF(x1, y1)}, depth);
 }
 
-bool MainWindow::cutStroke(const std::vector<QPointF>& xy, double depth) {
+bool MainWindow::cutStroke(const std::vector<QPointF>& xy, double depth, double speed) {
 #ifdef LD_GUI_HAVE_PHYSICS
   if (!physics_ || !PhysicsSession::cuttingAvailable() || xy.size() < 2) return false;
   pollPhysics();
   const Bounds b = view_->mesh().bounds();
   const auto z = static_cast<double>(b.max[2]);
   // Samples every half millimetre along the polyline, the blade's sharp side facing
-  // the motion of each leg.
+  // the motion of each leg; at a hand's speed the tissue moves between two samples.
   for (std::size_t i = 0; i + 1 < xy.size(); ++i) {
     const Eigen::Vector3d from(xy[i].x(), xy[i].y(), z), to(xy[i + 1].x(), xy[i + 1].y(), z);
     const Eigen::Vector3d motion = to - from;
     const int n = std::max(1, static_cast<int>(std::ceil(motion.norm() / 0.5)));
-    for (int k = i == 0 ? 0 : 1; k <= n; ++k)
+    for (int k = i == 0 ? 0 : 1; k <= n; ++k) {
       physics_->cutSample(from + (static_cast<double>(k) / n) * motion, Eigen::Vector3d::UnitZ(), motion, depth);
+      if (speed > 0 && k < n) physics_->advance(motion.norm() / n / speed);
+    }
+    if (speed > 0 && i + 2 < xy.size()) physics_->advance(motion.norm() / n / speed);
   }
   physics_->endCut();
   return true;
 #else
-  (void)xy, (void)depth;
+  (void)xy, (void)depth, (void)speed;
   return false;
 #endif
 }
@@ -179,6 +190,14 @@ void MainWindow::dragPieces(const QVector3D& delta, bool lastStrokeOnly) {
     physics_->moveAllPieces(d);
 #else
   (void)delta, (void)lastStrokeOnly;
+#endif
+}
+
+void MainWindow::setHoldWhileCutting(bool on) {
+  holdWhileCutting_ = on;
+  if (holdAction_) holdAction_->setChecked(on);
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (physics_) physics_->setHoldWhileCutting(on);
 #endif
 }
 
@@ -261,6 +280,12 @@ void MainWindow::buildMenus() {
       if (on != physicsEnabled_) setPhysicsEnabled(on);
     });
     sim->addAction(tr("R&estart from the loaded model"), this, [this] { restartPhysics(); });
+    holdAction_ = sim->addAction(tr("&Hold the tissue still while cutting"));
+    holdAction_->setCheckable(true);
+    holdAction_->setChecked(holdWhileCutting_);
+    holdAction_->setToolTip(
+        tr("The wound opens when the blade lifts; pieces come free reliably (off: the tissue moves under the blade)"));
+    connect(holdAction_, &QAction::toggled, this, [this](bool on) { setHoldWhileCutting(on); });
     sim->addSeparator();
     // What a plain left drag does: orbit the camera, push the tissue, or cut it.
     auto* group = new QActionGroup(this);

@@ -62,11 +62,15 @@ class MainWindow : public QMainWindow {
   // from (x0, y0) to (x1, y1) at `depth` mm below the highest point.
   bool cutAcrossTop(double x0, double y0, double x1, double y1, double depth);
   // A scalpel stroke along a polyline (x, y pairs) across the top, `depth` mm deep.
-  // Returns false without the cutting module.
-  bool cutStroke(const std::vector<QPointF>& xy, double depth);
+  // `speed` > 0 [mm/s] paces the samples as a hand would (the simulation runs between
+  // them, so the wound opens behind the blade); 0 makes the whole stroke between two
+  // steps. Returns false without the cutting module.
+  bool cutStroke(const std::vector<QPointF>& xy, double depth, double speed = 0.0);
   // Moves every piece cut free so far by `delta` mm (as a grasp would), or only
   // those the last stroke that freed any freed.
   void dragPieces(const QVector3D& delta, bool lastStrokeOnly = false);
+  // Hold the tissue still while the blade is in it (default; see PhysicsSession).
+  void setHoldWhileCutting(bool on);
   // Blocks until the simulation has run every command sent so far.
   void syncPhysics();
   // The objects as last shown: index 0 the tissue, then the pieces cut free.
@@ -84,6 +88,7 @@ class MainWindow : public QMainWindow {
   void finishLoad(unsigned id, std::shared_ptr<LoadedModel> model, const QString& error);
   void updateCounts();
   void restartPhysics();
+  void sendCutSample(const QVector3D& p);  // one scalpel sample at the cursor's point
 
   MeshView* view_ = nullptr;
   QLabel* countsLabel_ = nullptr;
@@ -103,13 +108,15 @@ class MainWindow : public QMainWindow {
   std::unique_ptr<PhysicsSession> physics_;
   bool physicsEnabled_ = true;
   QAction* physicsAction_ = nullptr;
+  QAction* holdAction_ = nullptr;
+  bool holdWhileCutting_ = true;
   QLabel* physicsLabel_ = nullptr;
   QTimer* frameTimer_ = nullptr;
 #ifdef LD_GUI_HAVE_SIM_IO
   std::optional<mesh::SurfaceMesh> original_;  // the model as loaded, to restart from
 #endif
   QDoubleSpinBox* cutDepth_ = nullptr;
-  QVector3D cutLast_, cutNormal_;
+  QVector3D cutLast_, cutNormal_, cutCursor_;  // last point sent, stroke normal, cursor
   bool cutting_ = false;
   std::optional<std::pair<int, std::uint32_t>> pushVertex_;  // object id, vertex
   QVector3D pushTarget_;

@@ -35,10 +35,15 @@ physics::Params PhysicsSession::defaultParams() {
   // thick water) would make the symplectic step unstable (omega * dt > 2), so the
   // GUI's tissue is five times denser: omega * dt stays about 1.
   params.tissue.density = 2.5e-5;
-  // Home springs weaker than the default let a wound gape under the pre-stretch;
-  // below about 3 mN/mm a cut entering from the boundary left the tissue needing the
-  // implicit fallback on every step (measured), so 3 it is.
-  params.tissue.homeK = 3.0;
+  // The pre-stretched mesh springs (rest = 0.7 x length) pull a cut open; the home
+  // springs hold the tissue in place. How far the lips part grows with the ratio of
+  // mesh to home stiffness (K / homeK): a 60 mm cut-through of the default slab opens
+  // by 1.7 mm at 3 mN/mm, 3.4 at 1, 4.9 at 0.5, while tissue 15 mm from the cut moves
+  // 0.01, 0.09 and 0.3 mm (measured). Weaker than 1 the settled slab's rim rounds off
+  // so far that the cutter leaves rim-to-rim strokes attached (2-5 of 10 test strokes
+  // at 0.5-0.7 mN/mm, none at 1), so 1 it is: the wound gapes by several millimetres
+  // and pieces still come free. The mass floor below keeps the 1 ms step stable.
+  params.tissue.homeK = 1.0;
   // Short edges made by cutting are stiff and light (k = K / rest): a mass floor keeps
   // the 1 ms step stable there instead of the monitor's substeps.
   params.tissue.massFloorDt = 1e-3;
@@ -129,15 +134,12 @@ void PhysicsSession::run() {
   settled_ = true;
 
   auto deadline = Clock::now() + period;
-  double meanUs = 0.0;
+  const auto window = static_cast<std::uint64_t>(std::max(1.0, options_.rateHz));  // one second of steps
   while (!stop_.load()) {
     drain();
     const auto t0 = Clock::now();
     stepAll(dt);
-    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    meanUs = steps_.load() == 0 ? us : 0.99 * meanUs + 0.01 * us;
-    meanStepUs_ = meanUs;
-    ++steps_;
+    noteStep(std::chrono::duration<double, std::micro>(Clock::now() - t0).count(), window);
     if (Clock::now() - lastPublish >= publishPeriod) {
       publish();
       lastPublish = Clock::now();
@@ -155,18 +157,60 @@ void PhysicsSession::run() {
 }
 
 void PhysicsSession::stepAll(double dt) {
-  std::uint64_t warnings = 0, implicit = 0;
+  if (strokeOpen_ && holdWhileCutting_) return;  // the blade is in the tissue: hold it still
+  std::uint64_t warnings = 0, implicit = 0, resets = 0;
   for (auto& b : bodies_) {
     physics::step(params_, b.dynamics, meshOf(b.id), dt);
     warnings += b.dynamics.stability.warnings;
     implicit += b.dynamics.stability.implicitFallbacks;
+    resets += b.dynamics.stability.velocityResets;
   }
   warnings_ = warnings;
   implicit_ = implicit;
+  resets_ = resets;
+}
+
+void PhysicsSession::noteStep(double us, std::uint64_t window) {
+  meanUs_ = steps_.load() == 0 ? us : 0.99 * meanUs_ + 0.01 * us;
+  meanStepUs_ = meanUs_;
+  windowMaxUs_ = std::max(windowMaxUs_, us);
+  // The largest step of the last full second of steps, or of this one when larger.
+  maxStepUs_ = std::max(lastWindowMaxUs_, windowMaxUs_);
+  if (++steps_ % window == 0) {
+    lastWindowMaxUs_ = windowMaxUs_;
+    windowMaxUs_ = 0.0;
+  }
+}
+
+void PhysicsSession::advance(double seconds) {
+  post([this, seconds] {
+    const double dt = 1.0 / options_.rateHz;
+    const auto n = static_cast<long>(std::lround(seconds / dt));
+    const auto window = static_cast<std::uint64_t>(std::max(1.0, options_.rateHz));
+    for (long i = 0; i < n && !stop_.load(); ++i) {
+      const auto t0 = Clock::now();
+      stepAll(dt);
+      noteStep(std::chrono::duration<double, std::micro>(Clock::now() - t0).count(), window);
+    }
+  });
+}
+
+PhysicsSession::Stats PhysicsSession::stats() const {
+  Stats s;
+  s.steps = steps_.load();
+  s.late = late_.load();
+  s.meanStepUs = meanStepUs_.load();
+  s.maxStepUs = maxStepUs_.load();
+  s.warnings = warnings_.load();
+  s.implicit = implicit_.load();
+  s.resets = resets_.load();
+  s.nanFrames = nanFrames_.load();
+  return s;
 }
 
 void PhysicsSession::publish() {
   SceneFrame next;
+  bool finite = true;
   {
     std::lock_guard lock(frameMutex_);
     next.objects.reserve(bodies_.size());
@@ -179,7 +223,11 @@ void PhysicsSession::publish() {
 #endif
       o.topology = m.topologyVersion();
       o.mesh.positions.resize(m.verticesSize());
-      for (auto v : m.vertices()) o.mesh.positions[v.idx()] = toF(m.position(v));
+      for (auto v : m.vertices()) {
+        const Eigen::Vector3d& p = m.position(v);
+        finite = finite && p.allFinite();
+        o.mesh.positions[v.idx()] = toF(p);
+      }
       // Triangles again only when they changed since the last frame.
       const auto old = std::find_if(frame_.objects.begin(), frame_.objects.end(),
                                     [&](const SceneObject& x) { return x.id == b.id; });
@@ -206,6 +254,7 @@ void PhysicsSession::publish() {
       next.objects.push_back(std::move(o));
     }
   }
+  if (!finite) ++nanFrames_;
   next.preview = preview_;
   next.simTime = bodies_[0].dynamics.time;
   std::lock_guard lock(frameMutex_);
@@ -392,6 +441,7 @@ void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vect
   pose.tip = surface + depth * pose.dir;
   post([this, pose] {
     cutting::StepResult r;
+    strokeOpen_ = true;
     try {
       r = engine_->step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
     } catch (const std::exception& e) {
@@ -419,8 +469,13 @@ void PhysicsSession::endCut() {
     afterCut(r);
     preview_.clear();
     ++strokes_;
+    strokeOpen_ = false;
   });
 #endif
+}
+
+void PhysicsSession::setHoldWhileCutting(bool on) {
+  post([this, on] { holdWhileCutting_ = on; });
 }
 
 double PhysicsSession::simTime() const {
@@ -431,12 +486,19 @@ double PhysicsSession::simTime() const {
 QString PhysicsSession::status() const {
   if (!settled_.load())
     return QStringLiteral("Physics: settling %1%").arg(static_cast<int>(100.0 * settleProgress_.load()));
-  QString line = QStringLiteral("Physics: t = %1 s, step %2 µs, late %3")
+  const Stats st = stats();
+  QString line = QStringLiteral("Physics: t = %1 s, step %2 µs (max %3), late %4 of %5, NaN %6")
                      .arg(simTime(), 0, 'f', 1)
-                     .arg(meanStepUs_.load(), 0, 'f', 0)
-                     .arg(late_.load());
-  if (const auto w = warnings_.load())
-    line += QStringLiteral(", %1 stability warnings (%2 implicit fallbacks)").arg(w).arg(implicit_.load());
+                     .arg(st.meanStepUs, 0, 'f', 0)
+                     .arg(st.maxStepUs, 0, 'f', 0)
+                     .arg(st.late)
+                     .arg(st.steps)
+                     .arg(st.nanFrames);
+  if (st.warnings)
+    line += QStringLiteral(", %1 stability warnings (%2 implicit fallbacks, %3 velocity resets)")
+                .arg(st.warnings)
+                .arg(st.implicit)
+                .arg(st.resets);
   if (const int n = objectCount_.load(); n > 1) line += QStringLiteral(", %1 pieces freed").arg(n - 1);
   if (pushForce_.load() > 0) line += QStringLiteral(", push %1 mN").arg(pushForce_.load(), 0, 'f', 0);
   if (trianglesCut_ > 0) line += QStringLiteral(", %1 triangles cut").arg(trianglesCut_.load());

@@ -77,8 +77,8 @@ class PhysicsSession {
   PhysicsSession(const PhysicsSession&) = delete;
   PhysicsSession& operator=(const PhysicsSession&) = delete;
 
-  // The tissue parameters the window simulates with (weaker home springs than the
-  // defaults so that a wound visibly opens under the pre-stretch).
+  // The tissue parameters the window simulates with (much weaker home springs than
+  // the defaults so that a wound opens by several millimetres under the pre-stretch).
   [[nodiscard]] static physics::Params defaultParams();
 
   // Copies the latest frame into `out` when it is newer than the one it holds.
@@ -111,11 +111,34 @@ class PhysicsSession {
   void cutSample(const Eigen::Vector3d& surface, const Eigen::Vector3d& normal, const Eigen::Vector3d& motion,
                  double depth);
   void endCut();
+  // While a stroke is open (first sample to endCut) the tissue is held still by default:
+  // the cutter closes cut loops (and frees pieces) reliably only on tissue that does not
+  // move under the blade (corner strokes through a moving, opening tissue often leave
+  // the piece attached: a cutter limit, measured). The wound opens when the blade
+  // lifts. Off, the tissue keeps moving under the blade.
+  void setHoldWhileCutting(bool on);
   [[nodiscard]] long trianglesCut() const { return trianglesCut_.load(); }
   [[nodiscard]] int objectCount() const { return objectCount_.load(); }
 
   // Blocks until every command posted so far has run (scripted use and tests).
   void sync();
+  // Runs `seconds` of simulated time at once on the simulation thread, as fast as it
+  // can, in the order of the commands (scripted strokes pace their samples with it as a
+  // hand would, so the tissue moves between samples; tests wait for a number of steps).
+  void advance(double seconds);
+
+  // What the loop measured about itself (the status bar and --screenshot's JSON).
+  struct Stats {
+    std::uint64_t steps = 0;      // fixed steps since the tissue settled
+    std::uint64_t late = 0;       // steps that finished after their deadline
+    double meanStepUs = 0.0;      // running mean of one step (all objects) [µs]
+    double maxStepUs = 0.0;       // largest step in the last second of steps [µs]
+    std::uint64_t warnings = 0;   // steps the stability monitor rejected at first
+    std::uint64_t implicit = 0;   // ... of which finished with the implicit method
+    std::uint64_t resets = 0;     // ... or by zeroing velocities (last resort)
+    std::uint64_t nanFrames = 0;  // published frames with a non-finite position
+  };
+  [[nodiscard]] Stats stats() const;
 
   [[nodiscard]] bool settled() const { return settled_.load(); }
   [[nodiscard]] double settleProgress() const { return settleProgress_.load(); }
@@ -135,6 +158,7 @@ class PhysicsSession {
   void run();
   void drain();
   void stepAll(double dt);
+  void noteStep(double us, std::uint64_t window);  // sim thread
   void publish();
   mesh::SurfaceMesh& meshOf(int id);
   void addBodies();
@@ -146,9 +170,11 @@ class PhysicsSession {
   physics::Params params_;
   Options options_;
   std::unique_ptr<cutting::CutEngine> engine_;
-  std::unique_ptr<mesh::SurfaceMesh> plain_;  // the tissue when the cutting module is absent
-  std::vector<Body> bodies_;                  // sim thread
-  int strokes_ = 0;                           // strokes ended (sim thread)
+  std::unique_ptr<mesh::SurfaceMesh> plain_;                         // the tissue when the cutting module is absent
+  std::vector<Body> bodies_;                                         // sim thread
+  int strokes_ = 0;                                                  // strokes ended (sim thread)
+  bool holdWhileCutting_ = true, strokeOpen_ = false;                // sim thread
+  double meanUs_ = 0.0, windowMaxUs_ = 0.0, lastWindowMaxUs_ = 0.0;  // sim thread
   std::vector<std::pair<int, std::uint32_t>> forced_;
   std::optional<std::pair<int, std::uint32_t>> patchKey_;
   std::uint64_t patchTopology_ = ~std::uint64_t{0};
@@ -171,8 +197,8 @@ class PhysicsSession {
   std::atomic<long> trianglesCut_{0};
   std::atomic<int> objectCount_{1};
   std::atomic<double> pushForce_{0.0};
-  std::atomic<std::uint64_t> warnings_{0}, implicit_{0}, late_{0}, steps_{0};
-  std::atomic<double> meanStepUs_{0.0};
+  std::atomic<std::uint64_t> warnings_{0}, implicit_{0}, resets_{0}, late_{0}, steps_{0}, nanFrames_{0};
+  std::atomic<double> meanStepUs_{0.0}, maxStepUs_{0.0};
   mutable std::mutex errorMutex_;
   std::string lastCutError_;
   std::thread thread_;

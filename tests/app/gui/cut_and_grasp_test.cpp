@@ -18,6 +18,7 @@
 #include "app/gui/main_window.h"
 #include "app/gui/mesh_view.h"
 #include "app/gui/physics_session.h"
+#include "tests/app/gui/wound_measure.h"
 #include "tests/support/test_support.h"
 
 namespace {
@@ -95,6 +96,12 @@ TEST_F(CutAndGrasp, ACutThroughFreesAPieceThatMovesWhereItIsDraggedWhileTheRestS
   window_->syncPhysics();
   const QVector3D piece0 = centroid(v->objects()[1]), rest0 = centroid(v->objects()[0]);
   EXPECT_LT(piece0.y(), rest0.y()) << "the freed piece is the front strip";
+  // The pre-stretch pulls the two lips apart: the strip's and the tissue's cut edges
+  // stand millimetres apart along the middle of the cut, before any drag.
+  window_->physics()->advance(0.5);
+  window_->syncPhysics();
+  for (float x : {-15.0F, 0.0F, 15.0F})
+    EXPECT_GT(ld::gui::test::lipGap(v->objects(), x, -15.0F), 2.0) << "the cut-through did not open at x = " << x;
 
   const QVector3D drag(0, -12, 3);
   window_->dragPieces(drag);
@@ -124,6 +131,25 @@ TEST_F(CutAndGrasp, ACutThroughFreesAPieceThatMovesWhereItIsDraggedWhileTheRestS
     return centroid(v->objects()[1]).x() > before.x() + 3.0F;
   })) << "the grasped piece did not move to the right with the cursor";
   EXPECT_LT((centroid(v->objects()[0]) - rest0).length(), 0.5F);
+}
+
+// An L-shaped stroke from beyond the left rim to beyond the front rim, paced like a
+// hand (40 mm/s, the simulation running between samples): the corner comes free. The
+// tissue is held still while the blade is in it (the default); with the tissue moving
+// under the blade the cutter often leaves such a corner attached.
+TEST_F(CutAndGrasp, AnLShapedStrokeAtAHandsPaceFreesTheCorner) {
+  MeshView* v = window_->view();
+  ASSERT_TRUE(window_->cutStroke({QPointF(-50, -12), QPointF(10, -12), QPointF(10, -40)}, 8, 40.0));
+  window_->syncPhysics();
+  ASSERT_EQ(window_->objectCount(), 2u) << "the L-shaped cut-through did not free the corner";
+  window_->physics()->advance(0.5);
+  window_->syncPhysics();
+  const QVector3D piece = centroid(v->objects()[1]);
+  EXPECT_LT(piece.x(), 10.0F);
+  EXPECT_LT(piece.y(), -12.0F);
+  // Both legs opened once the blade lifted.
+  EXPECT_GT(ld::gui::test::lipGap(v->objects(), -20.0F, -12.0F), 2.0);
+  EXPECT_EQ(window_->physics()->stats().nanFrames, 0u);
 }
 
 TEST_F(CutAndGrasp, GrooveWallsAreDrawnInTheInteriorColour) {
