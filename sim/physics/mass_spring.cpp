@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <thread>
 #include <utility>
 
@@ -197,6 +198,16 @@ constexpr std::size_t kChunk = 256;  // springs per gather/compute/scatter chunk
 
 constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
 
+// A force buffer's vertex slots (4 doubles each) start on a 64-byte boundary inside
+// the vector (sized 4n + 8): a slot never straddles a cache line, so the kernels'
+// 4-wide read-modify-writes forward from store to load (a split line defeats that and
+// costs more than the spring). Every slot is zero between sweeps, so a reallocation
+// that moves the boundary changes nothing.
+double* forceSlots(std::vector<double>& buf) {
+  const auto p = reinterpret_cast<std::uintptr_t>(buf.data());
+  return buf.data() + ((64 - p % 64) % 64) / sizeof(double);
+}
+
 void noteJournal(Cache& c, const mesh::SurfaceMesh& m) {
   c.topologyVersion = m.topologyVersion();
   c.layoutVersion = m.layoutVersion();
@@ -210,7 +221,7 @@ void sizeScratch(Cache& c, std::size_t n) {
   for (auto& ch : c.chunk)
     if (ch.size() != 6 * cap) ch.assign(6 * cap, 0.0);
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->resize(n, Vec3::Zero());
-  for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n, 0.0);
+  for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n + 8, 0.0);
 }
 
 // One O(V + E) pass over the mesh's arrays.
@@ -287,8 +298,8 @@ void rebuildCache(Cache& c, const mesh::SurfaceMesh& m) {
       if (c.other[q] >= c.splitVertex) c.cross.push_back(q);
   c.f.assign(n, Vec3::Zero());
   c.scatter.assign(n, Vec3::Zero());
-  c.f4.assign(4 * n, 0.0);
-  c.scatter4.assign(4 * n, 0.0);
+  c.f4.assign(4 * n + 8, 0.0);
+  c.scatter4.assign(4 * n + 8, 0.0);
   sizeScratch(c, n);
   c.forceZero = true;
   ++c.rebuilds;
@@ -521,7 +532,7 @@ struct PotentialParts {
 // Full force into f (damping with v unless v is null; f need not be zeroed).
 PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec3* v, Vec3* f) {
   // The sweep scatters into a zeroed buffer; each finished total goes into f.
-  double* acc = c.scatter4.data();
+  double* acc = forceSlots(c.scatter4);
   PotentialParts e;
   double home = 0.0;
   const double added = addedSprings(w, raw(x), acc);
@@ -723,7 +734,7 @@ struct SymplecticJob {
 // is bit-identical to one thread).
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
                           int threads) {
-  double* f4 = c.f4.data();
+  double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
   const SymplecticArgs args{&w, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
