@@ -2,9 +2,12 @@
 // about 10k and 100k triangles carrying the tissue properties, as the cutter sees
 // them. Each run starts from a fresh slab and does a fixed number of edits at random
 // places (cold memory, as between the cutter's samples); no timer pauses.
-//   mesh_bench --benchmark_counters_tabular=true
+//   mesh_bench --benchmark_counters_tabular=true            (about 3 s)
+//   mesh_bench --benchmark_filter='reserved:1' ...           (steady state only)
 // Counters: allocs_per_edit (operator new calls inside the timed loop, per edit),
-// faces (after the run).
+// ns_per_edit (CPU; printed with SI prefixes, e.g. "1.2ks" = 1200 ns), edits (done;
+// the slits can run out of row edges), faces (after the run). Args: tris, reserved
+// (see slabFor). Time per iteration is per edit except BM_DeleteAddFace (a pair).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
