@@ -162,6 +162,10 @@ TEST(GuiScreenshot, ScalpelStrokeCutsAGrooveWithInteriorWalls) {
   const auto j = lastJson(s.run.out);
   EXPECT_GT(j.at("triangles").get<int>(), 10144) << "the cut adds triangles";
   EXPECT_GT(j.at("cut_wall_triangles").get<int>(), 20) << "groove walls along a 40 mm stroke";
+  // The loop's own figures: steps were run and timed, no frame had a non-finite position.
+  EXPECT_GT(j.at("steps").get<long>(), 0);
+  EXPECT_GT(j.at("step_us_mean").get<double>(), 0.0);
+  EXPECT_EQ(j.at("nan_frames").get<long>(), 0);
   ASSERT_FALSE(s.image.isNull());
   // The groove shows as an interior-coloured line across the middle: some pixels of
   // the centre column have the interior's hue (green/red about 0.2; the surface's
@@ -220,7 +224,8 @@ TEST(GuiScreenshot, BadOptionsExitWithTwo) {
   EXPECT_EQ(u.exitCode, 2) << u.err;
   for (const char* bad :
        {"--physics --cut 1,2,3:4", "--physics --cut 0,0,1,1:-2", "--physics --cut 0,0,1,1:x", "--cut 0,0,10,0:2",
-        "--physics --drag-piece 1,2,3", "--physics --cut 0,0,9,0:2 --drag-piece 1,2", "--orbit 0,95"}) {
+        "--physics --drag-piece 1,2,3", "--physics --cut 0,0,9,0:2 --drag-piece 1,2", "--orbit 0,95",
+        "--physics --cut-speed 40", "--physics --cut 0,0,9,0:2 --cut-speed -1", "--physics --cut-live"}) {
     const auto c = runCommand(shellQuote(LD_GUI_BIN) + " --screenshot /tmp/x.png " + bad);
     EXPECT_EQ(c.exitCode, 2) << bad << ": " << c.err;
     EXPECT_NE(c.err.find("--"), std::string::npos) << bad << ": the message names the option: " << c.err;
