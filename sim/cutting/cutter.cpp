@@ -242,6 +242,15 @@ struct CutEngine::Impl {
   }
 
   // ---- geometry helpers --------------------------------------------------------------
+  // SurfaceMesh::faces(v) into a kept vector (the walk asks for every step).
+  static void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
+    out.clear();
+    for (Edge e : m.edges(v))
+      for (int k = 0; k < 2; ++k)
+        if (const Face f = m.face(e, k); f.isValid() && std::find(out.begin(), out.end(), f) == out.end())
+          out.push_back(f);
+  }
+
   static Vec3 rawNormal(const SurfaceMesh& m, Face f) {
     const auto& v = m.vertices(f);
     return (m.position(v[1]) - m.position(v[0])).cross(m.position(v[2]) - m.position(v[0]));
@@ -590,11 +599,17 @@ struct CutEngine::Impl {
     if (walls) {
       const Vec3 pv = m.position(v), pN = m.position(N);
       // The opening will be the loop N, v, chain..., copies of chain and v back to N.
-      std::vector<Vertex> ids{N, v};
-      ids.insert(ids.end(), chain.begin(), chain.end());
-      for (std::size_t i = chain.size() - 1; i-- > 0;) ids.push_back(chain[i]);
-      ids.push_back(v);
-      const double qFan = loopQuality(m, ids);
+      double qFan = -std::numeric_limits<double>::infinity();
+      if (chain.size() == 1) {
+        // Loop N, v, o, v': its only triangulation is two copies of (v, N, o).
+        if (!m.findEdge(N, o).isValid()) qFan = height(pv, pN, m.position(o));
+      } else {
+        std::vector<Vertex> ids{N, v};
+        ids.insert(ids.end(), chain.begin(), chain.end());
+        for (std::size_t i = chain.size() - 1; i-- > 0;) ids.push_back(chain[i]);
+        ids.push_back(v);
+        qFan = loopQuality(m, ids);
+      }
       const bool fanOk = qFan >= thr && !(chain.size() == 1 && m.findEdge(N, o).isValid());
       double qApex = -1.0;
       if (chain.size() == 1) {
@@ -624,8 +639,14 @@ struct CutEngine::Impl {
         // Mid-stroke the bottom vertex is reused over about three path steps (fewer
         // triangles per cut triangle on coarse meshes); the last step of a cut puts the
         // bottom back at the blade's depth within grooveSpacing.
-        const double spacing = lastStep ? p.grooveSpacing : std::max(p.grooveSpacing, 2.5 * (pN - pv).norm());
-        const bool reuse = apexProp[o] != 0 && (depthN - m.position(o)).norm() < spacing;
+        const double spacing = lastStep ? p.grooveSpacing : std::max(p.grooveSpacing, 4.0 * (pN - pv).norm());
+        // ... while the fan's triangle keeps a fair smallest angle (a low groove bottom
+        // far back makes needles: a shallow groove gets bottom vertices more often).
+        const Vec3 po = m.position(o);
+        const double fanAngle = minAngle(pv, pN, po);
+        const bool reuse =
+            apexProp[o] != 0 && (depthN - po).norm() < spacing &&
+            (fanAngle >= kMinWallAngle || fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos)));
         if (reuse && fanOk)
           fill = Fill::Fan;
         else if (apexOk)
@@ -635,6 +656,8 @@ struct CutEngine::Impl {
         else
           fill = Fill::Defer;
       }
+      if (dbg() && !paired && chain.size() == 1)
+        std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
         std::vector<Vertex> grown{v};
@@ -742,6 +765,16 @@ struct CutEngine::Impl {
         },
         tris);
   }
+
+  // Smallest angle of triangle (a, b, c) [radians].
+  static double minAngle(const Vec3& a, const Vec3& b, const Vec3& c) {
+    auto at = [](const Vec3& p, const Vec3& q, const Vec3& r) {
+      return std::atan2((q - p).cross(r - p).norm(), (q - p).dot(r - p));
+    };
+    const double x = at(a, b, c), y = at(b, c, a);
+    return std::min({x, y, M_PI - x - y});
+  }
+  static constexpr double kMinWallAngle = 12.0 * M_PI / 180.0;
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
   static double height(const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -1072,7 +1105,11 @@ struct CutEngine::Impl {
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
-    const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - origin);
+    // depth0 belongs to the last sampled point (the pending one, else the tip): the
+    // depth at a crossing is interpolated between the two samples around it, so it does
+    // not depend on the sampling rate.
+    const Vec3 depthFrom = tr.hasPending ? tr.pending : origin;
+    const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - depthFrom);
     int sgn = 0;
     double travelled = 0.0;
     const int maxSteps = 100000;
@@ -1080,7 +1117,8 @@ struct CutEngine::Impl {
       SurfaceMesh& m = meshOf(tr.object);
       const Vertex v = tr.tip;
       const Vec3 pv = m.position(v);
-      const std::vector<Face> around = m.faces(v);
+      facesAround(m, v, walkFaces);
+      const std::vector<Face>& around = walkFaces;
       auto own = [&](Face f) {
         for (Vertex x : m.vertices(f))
           if (!tr.visited.count(x)) return false;
@@ -1157,7 +1195,7 @@ struct CutEngine::Impl {
         return false;
       }
       const double s =
-          span.squaredNorm() > 0 ? std::clamp((best.q - origin).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
+          span.squaredNorm() > 0 ? std::clamp((best.q - depthFrom).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
       const Vec3 depth = depth0 + s * (depth1 - depth0);
       Vertex N;
       if (best.isVertex) {
@@ -1605,9 +1643,23 @@ struct CutEngine::Impl {
 
   // A groove (track t) whose blade now also crosses the layer below (new hit h): the
   // cut turns into a cut-through from here on.
-  void deepen(HandState& hs, std::size_t ti, const Hit& h) {
+  // endFrom -> endTo: the blade's end that went through since the last sample; the
+  // cut on the new layer starts where it did (the same at any sampling rate).
+  void deepen(HandState& hs, std::size_t ti, const Hit& h, const Vec3* endFrom, const Vec3* endTo) {
     if (dbg()) std::cerr << "deepen track " << hs.tracks[ti].id << " through " << h.point.transpose() << "\n";
     Track B = newTrack(h);
+    if (endFrom && endTo) {
+      const std::size_t oi = static_cast<std::size_t>(indexOf(h.object));
+      syncBvh(oi);
+      bvhs[oi].intersectSegment(objects[oi].mesh, *endFrom, *endTo, scratchHits);
+      double best = p.matchRadius;
+      for (const auto& x : scratchHits)
+        if (x.kind != collision::HitKind::Coplanar && (x.point - h.point).norm() < best) {
+          best = (x.point - h.point).norm();
+          B.start = x.point;
+          B.startFace = x.face;
+        }
+    }
     B.partner = hs.tracks[ti].id;
     B.tunnel = true;
     hs.tracks[ti].partner = B.id;
@@ -1699,38 +1751,53 @@ struct CutEngine::Impl {
     moved[i] = 0;
   }
 
-  std::vector<Hit> hitsOf(const Vec3& a, const Vec3& b, int segment) {
-    std::vector<Hit> out;
+  // Appends the crossings of segment a-b with every object to `out`.
+  void hitsOf(const Vec3& a, const Vec3& b, int segment, std::vector<Hit>& out) {
     for (std::size_t oi = 0; oi < objects.size(); ++oi) {
       const auto& o = objects[oi];
       syncBvh(oi);
       bvhs[oi].intersectSegment(o.mesh, a, b, scratchHits);
-      const auto& hits = scratchHits;
-      std::vector<Hit> mine;
-      for (const auto& h : hits) {
+      const std::size_t first = out.size();
+      for (const auto& h : scratchHits) {
         if (h.kind == collision::HitKind::Coplanar || h.direction == 0) continue;
-        Hit x;
+        Hit& x = out.emplace_back();
         x.object = o.id;
         x.segment = segment;
         x.face = h.face;
         x.point = h.point;
         x.t = h.t;
         x.dir = h.direction;
-        mine.push_back(x);
       }
       // Depth: the blade's end on the material side, or halfway to the next crossing.
-      for (std::size_t i = 0; i < mine.size(); ++i) {
-        Hit& x = mine[i];
+      for (std::size_t i = first; i < out.size(); ++i) {
+        Hit& x = out[i];
         if (x.dir > 0) {
-          x.depth = (i + 1 < mine.size()) ? Vec3(0.5 * (x.point + mine[i + 1].point)) : b;
+          x.depth = (i + 1 < out.size()) ? Vec3(0.5 * (x.point + out[i + 1].point)) : b;
         } else {
-          x.depth = (i > 0) ? Vec3(0.5 * (x.point + mine[i - 1].point)) : a;
+          x.depth = (i > first) ? Vec3(0.5 * (x.point + out[i - 1].point)) : a;
         }
       }
-      out.insert(out.end(), mine.begin(), mine.end());
     }
-    return out;
   }
+
+  // Per-sample work lists, kept between samples (no allocation once warm).
+  struct Pair {
+    double d;
+    std::size_t track, hit;
+  };
+  std::vector<Hit> segHitsBuf, hitsBuf;
+  std::vector<std::size_t> segBegin;
+  std::vector<Pair> pairsBuf;
+  std::vector<int> matchBuf, trackOfHitBuf;
+  struct Deep {
+    std::size_t hit;
+    int track;
+    Vec3 from, to;    // the edge's end that went through, last sample -> now
+    double fraction;  // where along it (> 1: unknown)
+  };
+  std::vector<Deep> deepBuf;
+  int splitting = 0;
+  std::vector<Face> walkFaces;
 
   std::vector<Vertex> pinchedScratch;
   std::vector<std::pair<int, Vertex>> dirtyWork;
@@ -1738,6 +1805,11 @@ struct CutEngine::Impl {
   void fixPinches() {
     dirtyWork.clear();
     std::swap(dirtyWork, dirty);  // both keep their capacity
+    // An edit touches a vertex several times: check each once.
+    std::sort(dirtyWork.begin(), dirtyWork.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first < b.first : a.second.idx() < b.second.idx();
+    });
+    dirtyWork.erase(std::unique(dirtyWork.begin(), dirtyWork.end()), dirtyWork.end());
     for (const auto& [obj, v] : dirtyWork) {
       if (indexOf(obj) < 0) continue;
       SurfaceMesh& m = meshOf(obj);
@@ -1765,9 +1837,13 @@ struct CutEngine::Impl {
     return false;
   }
 
-  static double faceHeight(const SurfaceMesh& m, Face f) {
+  // Smallest height under h, without square roots (checked around every edit).
+  static bool thinnerThan(const SurfaceMesh& m, Face f, double h) {
     const auto& v = m.vertices(f);
-    return height(m.position(v[0]), m.position(v[1]), m.position(v[2]));
+    const Vec3 &a = m.position(v[0]), &b = m.position(v[1]), &c = m.position(v[2]);
+    const Vec3 ab = b - a, ac = c - a;
+    const double L2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
+    return ab.cross(ac).squaredNorm() < h * h * L2;
   }
 
   // Flips edge e (faces x,y,c and y,x,d become c,x,d and d,y,c) when both faces are of
@@ -1828,7 +1904,7 @@ struct CutEngine::Impl {
       for (Edge ev : m.edges(v)) {
         for (int s = 0; s < 2 && !flipped; ++s) {
           const Face f = m.face(ev, s);
-          if (!f.isValid() || faceHeight(m, f) >= floor) continue;
+          if (!f.isValid() || !thinnerThan(m, f, floor)) continue;
           Edge longest;
           double L = -1.0;
           for (Edge g : m.edges(f))
@@ -1854,21 +1930,27 @@ struct CutEngine::Impl {
   void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {
     const auto segs = instruments::segments(tool, pose, p.tool);
     const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
-    std::vector<Hit> hits;
-    std::vector<std::vector<Hit>> segHits(segs.size());
+    std::vector<Hit>& hits = hitsBuf;
+    hits.clear();
+    segHitsBuf.clear();
+    segBegin.assign(segs.size() + 1, 0);
     if (cuts || report) {
       CpuTimer timer{stats.collisionSeconds};
       for (std::size_t s = 0; s < segs.size(); ++s) {
-        segHits[s] = hitsOf(segs[s].a, segs[s].b, static_cast<int>(s));
+        segBegin[s] = segHitsBuf.size();
+        hitsOf(segs[s].a, segs[s].b, static_cast<int>(s), segHitsBuf);
         ++stats.collisionQueries;
       }
     }
+    segBegin[segs.size()] = segHitsBuf.size();
     for (std::size_t s = 0; s < segs.size(); ++s) {
       const auto& sg = segs[s];
       if (!cuts && !report) continue;
-      const std::vector<Hit>& h = segHits[s];
+      const auto hb = segHitsBuf.begin() + static_cast<std::ptrdiff_t>(segBegin[s]);
+      const auto he = segHitsBuf.begin() + static_cast<std::ptrdiff_t>(segBegin[s + 1]);
       if (report)
-        for (const auto& x : h) {
+        for (auto it = hb; it != he; ++it) {
+          const Hit& x = *it;
           Contact c;
           c.object = x.object;
           c.segment = x.segment;
@@ -1878,7 +1960,7 @@ struct CutEngine::Impl {
           c.entering = x.dir > 0;
           res->contacts.push_back(c);
         }
-      if (cuts && sg.role == instruments::SegmentRole::CuttingEdge) hits.insert(hits.end(), h.begin(), h.end());
+      if (cuts && sg.role == instruments::SegmentRole::CuttingEdge) hits.insert(hits.end(), hb, he);
     }
     if (!cuts) {
       terminateAll(hs);
@@ -1898,11 +1980,8 @@ struct CutEngine::Impl {
     };
 
     // Match crossings to the tracks of the previous sample, nearest first.
-    struct Pair {
-      double d;
-      std::size_t track, hit;
-    };
-    std::vector<Pair> pairs;
+    std::vector<Pair>& pairs = pairsBuf;
+    pairs.clear();
     for (std::size_t ti = 0; ti < hs.tracks.size(); ++ti) {
       const Track& t = hs.tracks[ti];
       if (!t.alive) continue;
@@ -1918,13 +1997,72 @@ struct CutEngine::Impl {
     std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
       return a.d != b.d ? a.d < b.d : (a.track != b.track ? a.track < b.track : a.hit < b.hit);
     });
-    std::vector<int> matchOf(hs.tracks.size(), -1);
+    std::vector<int>& matchOf = matchBuf;
+    matchOf.assign(hs.tracks.size(), -1);
     for (const auto& pr : pairs) {
       if (matchOf[pr.track] >= 0 || hits[pr.hit].used) continue;
       matchOf[pr.track] = static_cast<int>(pr.hit);
       hits[pr.hit].used = true;
     }
-    const std::size_t nTracks = hs.tracks.size();
+    // A new crossing next to a groove's crossing with material between them: the
+    // blade's end went through the layer below, and the groove turns into a cut-through
+    // before the tracks move on. The sample is first split where the end went through,
+    // so that the cut changes at the same place at any sampling rate.
+    std::vector<int>& trackOfHit = trackOfHitBuf;
+    trackOfHit.assign(hits.size(), -1);
+    for (std::size_t ti = 0; ti < matchOf.size(); ++ti)
+      if (matchOf[ti] >= 0) trackOfHit[static_cast<std::size_t>(matchOf[ti])] = static_cast<int>(ti);
+    deepBuf.clear();
+    for (std::size_t i = 0; i < hits.size(); ++i) {
+      const Hit& h = hits[i];
+      if (h.used || !closedObject(h.object)) continue;
+      for (const std::size_t nb : {i - 1, i + 1}) {
+        if (nb >= hits.size()) continue;  // i - 1 wraps for i = 0
+        const Hit& o = hits[nb];
+        if (o.object != h.object || o.segment != h.segment || trackOfHit[nb] < 0) continue;
+        const bool between = nb < i ? (o.dir > 0 && h.dir < 0) : (h.dir > 0 && o.dir < 0);
+        const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
+        if (!between || !t.alive || t.partner >= 0 || t.tunnel) continue;
+        Deep d{i, trackOfHit[nb], Vec3::Zero(), Vec3::Zero(), 2.0};
+        if (prevSegs.size() == segs.size()) {
+          // The end of the edge beyond the new crossing is the one that went through.
+          const std::size_t sg = static_cast<std::size_t>(h.segment);
+          const bool atA = h.t < o.t;
+          d.from = atA ? prevSegs[sg].a : prevSegs[sg].b;
+          d.to = atA ? segs[sg].a : segs[sg].b;
+          const std::size_t oi = static_cast<std::size_t>(indexOf(h.object));
+          syncBvh(oi);
+          bvhs[oi].intersectSegment(objects[oi].mesh, d.from, d.to, scratchHits);
+          double best = p.matchRadius;
+          for (const auto& x : scratchHits)
+            if (x.kind != collision::HitKind::Coplanar && (x.point - h.point).norm() < best) {
+              best = (x.point - h.point).norm();
+              d.fraction = x.t;
+            }
+        }
+        deepBuf.push_back(d);
+        break;
+      }
+    }
+    if (!deepBuf.empty() && prevPose && splitting == 0) {
+      double f = 1.0;
+      for (const Deep& d : deepBuf) f = std::min(f, d.fraction);
+      if (f > 1e-6 && f < 1.0) {
+        const Pose mid = lerpPose(*prevPose, pose, f * (1.0 - 1e-6));
+        ++splitting;
+        processSample(hs, tool, mid, prevPose, false);
+        processSample(hs, tool, pose, &mid, report);
+        --splitting;
+        return;
+      }
+    }
+    for (const Deep& d : deepBuf) {
+      hits[d.hit].used = true;
+      const bool swept = d.fraction <= 1.0;
+      deepen(hs, static_cast<std::size_t>(d.track), hits[d.hit], swept ? &d.from : nullptr, swept ? &d.to : nullptr);
+    }
+
+    const std::size_t nTracks = matchOf.size();  // tracks started here (deepen) move from the next sample
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
@@ -1961,31 +2099,11 @@ struct CutEngine::Impl {
       }
       debugScan("terminate");
     }
-    // New crossings start cuts: one next to a groove's crossing with material between
-    // them deepens the groove into a cut-through; two with material between them on a
-    // closed object make a slide-in through both layers; others a pierce-in.
-    std::vector<int> trackOfHit(hits.size(), -1);
-    for (std::size_t ti = 0; ti < nTracks; ++ti)
-      if (matchOf[ti] >= 0) trackOfHit[static_cast<std::size_t>(matchOf[ti])] = static_cast<int>(ti);
+    // New crossings start cuts: two with material between them on a closed object
+    // make a slide-in through both layers; others a pierce-in.
     for (std::size_t i = 0; i < hits.size(); ++i) {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
-      if (closedObject(h.object)) {
-        int groove = -1;
-        for (const std::size_t nb : {i - 1, i + 1}) {
-          if (nb >= hits.size()) continue;  // i - 1 wraps for i = 0
-          const Hit& o = hits[nb];
-          if (o.object != h.object || o.segment != h.segment || trackOfHit[nb] < 0) continue;
-          const bool between = nb < i ? (o.dir > 0 && h.dir < 0) : (h.dir > 0 && o.dir < 0);
-          const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
-          if (between && t.alive && t.partner < 0 && !t.tunnel) groove = trackOfHit[nb];
-        }
-        if (groove >= 0) {
-          hits[i].used = true;
-          deepen(hs, static_cast<std::size_t>(groove), h);
-          continue;
-        }
-      }
       std::size_t j = i + 1;
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
           hits[j].dir < 0 && closedObject(h.object)) {

@@ -4,6 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "sim/cutting/cutter.h"
+#include "sim/cutting/mesh_checks.h"
 #include "sim/physics/mass_spring.h"
 #include "tests/sim/cutting/cut_test_meshes.h"
 
@@ -25,30 +26,52 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 }
 
 void BM_Remesh(benchmark::State& state) {
-  const double tipZ = state.range(0) == 0 ? -4.0 : 0.5;  // 0: cut-through, 1: groove
+  // 0: cut-through, 1: groove 2 mm deep, 2: shallow groove 0.4 mm deep (the hook's
+  // usual depth: long, low walls), 3: groove deepening through the bottom mid-stroke.
+  const double tipZ = state.range(0) == 0 ? -4.0 : (state.range(0) == 2 ? 2.1 : 0.5);
   const auto base = slab();
-  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0;
+  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0;
   long cut = 0;
   for (auto _ : state) {
     state.PauseTiming();
     ld::cutting::CutEngine e;
     e.addObject(base);
     state.ResumeTiming();
-    cutStrokes(e, 4, tipZ);
+    if (state.range(0) == 3) {
+      for (int k = 0; k < 4; ++k) {
+        const double y = -25.0 + 50.0 * (k + 0.37) / 4;
+        ld::cutting::test::polyStroke(
+            e, {Vec3(-30, y, 0.5), Vec3(-10, y + 1, 0.5), Vec3(10, y + 2, -4), Vec3(30, y + 3, -4)}, Vec3(0, 0, -1),
+            100.0, 1000.0, [](ld::cutting::CutEngine&) {});
+      }
+    } else {
+      cutStrokes(e, 4, tipZ);
+    }
     const auto& st = e.stats();
     us = st.remeshMicrosPerCutTriangle();
     cut = st.trianglesCut;
     perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
     collUs = st.collisionQueries > 0 ? st.collisionSeconds * 1e6 / static_cast<double>(st.collisionQueries) : 0.0;
     slowPerTri = static_cast<double>(st.slowSamples) / static_cast<double>(std::max(1L, st.trianglesCut));
+    state.PauseTiming();
+    minAngle = 180.0;
+    minArea = 1e300;
+    for (const auto& o : e.objects()) {
+      const auto q = ld::cutting::measureQuality(o.mesh);
+      minAngle = std::min(minAngle, q.minAngleDeg);
+      minArea = std::min(minArea, q.minArea);
+    }
+    state.ResumeTiming();
   }
+  state.counters["min_angle_deg"] = minAngle;
+  state.counters["min_area_mm2"] = minArea;
   state.counters["collision_us_per_query"] = collUs;
   state.counters["slow_samples_per_cut_triangle"] = slowPerTri;
   state.counters["remesh_us_per_cut_triangle"] = us;
   state.counters["triangles_added_per_cut_triangle"] = perTri;
   state.counters["triangles_cut"] = static_cast<double>(cut);
 }
-BENCHMARK(BM_Remesh)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_Remesh)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_PhysicsStepAfterCuts(benchmark::State& state) {
   ld::cutting::CutEngine e;
