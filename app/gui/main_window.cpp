@@ -283,8 +283,8 @@ void MainWindow::buildMenus() {
     holdAction_ = sim->addAction(tr("&Hold the tissue still while cutting"));
     holdAction_->setCheckable(true);
     holdAction_->setChecked(holdWhileCutting_);
-    holdAction_->setToolTip(
-        tr("The wound opens when the blade lifts; pieces come free reliably (off: the tissue moves under the blade)"));
+    holdAction_->setToolTip(tr(
+        "The wound opens when the blade lifts, and cut-out pieces come free (off: the tissue moves under the blade)"));
     connect(holdAction_, &QAction::toggled, this, [this](bool on) { setHoldWhileCutting(on); });
     sim->addSeparator();
     // What a plain left drag does: orbit the camera, push the tissue, or cut it.

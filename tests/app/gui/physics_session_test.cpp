@@ -128,6 +128,34 @@ TEST(PhysicsSession, ACutThroughOpensBySeveralMillimetresAndTheUncutTissueStaysP
   EXPECT_NEAR(ld::gui::test::lipGap(meshesOf(later), 0.0F, 0.0F), gap0, 0.1);
 }
 
+// While a stroke is open the tissue is held still (time does not advance), and it moves
+// again when the blade lifts; with the hold off it keeps moving under the blade.
+TEST(PhysicsSession, HoldsTheTissueStillWhileTheBladeIsInIt) {
+  if (!PhysicsSession::cuttingAvailable()) GTEST_SKIP() << "no cutting module in this build";
+  PhysicsSession session(ld::physics::makeSlab(40.0, 30.0, 5.0, 2.5));
+  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
+  const Eigen::Vector3d top(0, 0, 2.5), up = Eigen::Vector3d::UnitZ(), along = Eigen::Vector3d::UnitX();
+  session.cutSample(top, up, along, 2.0);
+  session.sync();
+  const double held = session.simTime();
+  session.advance(0.2);
+  session.sync();
+  EXPECT_EQ(session.simTime(), held) << "the tissue moved while the blade was in it";
+  session.endCut();
+  session.advance(0.2);
+  session.sync();
+  EXPECT_GE(session.simTime(), held + 0.2 - 1e-9) << "the tissue did not move again after the stroke";
+
+  session.setHoldWhileCutting(false);
+  session.cutSample(top + Eigen::Vector3d(1, 0, 0), up, along, 2.0);
+  session.sync();
+  const double live = session.simTime();
+  session.advance(0.2);
+  session.sync();
+  EXPECT_GE(session.simTime(), live + 0.2 - 1e-9) << "with the hold off the tissue keeps moving";
+  session.endCut();
+}
+
 TEST(PhysicsSession, AdvanceRunsStepsAtOnceAndStatsCountThem) {
   PhysicsSession session(ld::physics::makeSlab(40.0, 30.0, 5.0, 2.5));
   ASSERT_TRUE(waitFor([&] { return session.settled(); }));
