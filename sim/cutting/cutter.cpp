@@ -1799,7 +1799,6 @@ struct CutEngine::Impl {
   int splitting = 0;
   std::vector<Face> walkFaces;
 
-  std::vector<Vertex> pinchedScratch;
   std::vector<std::pair<int, Vertex>> dirtyWork;
   // Safety net: no vertex around an edit may join two fans.
   void fixPinches() {
@@ -1814,13 +1813,9 @@ struct CutEngine::Impl {
       if (indexOf(obj) < 0) continue;
       SurfaceMesh& m = meshOf(obj);
       if (!m.isValid(v)) continue;
-      pinchedScratch.clear();
-      if (!singleFan(m, v)) pinchedScratch.push_back(v);
-      for (Edge e : m.edges(v)) {
-        const Vertex x = m.otherVertex(e, v);
-        if (!singleFan(m, x)) pinchedScratch.push_back(x);
-      }
-      for (Vertex x : pinchedScratch) unpinch(obj, x);
+      // Every edit lists the vertices whose fans it changed (the ends of a duplicated
+      // edge are on the cut, hence listed too): their neighbours need no check.
+      if (!singleFan(m, v)) unpinch(obj, v);
     }
     for (const auto& [obj, v] : dirtyWork) {
       if (indexOf(obj) < 0 || !meshOf(obj).isValid(v)) continue;
