@@ -165,7 +165,9 @@ double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d
   g.dirty.clear();
   for (std::size_t k = 0; k < n; ++k) clipEdge(loop[k], loop[(k + 1) % n], g);
   for (const auto& c : g.clipped) {
-    auto& pieces = g.cells[key(c.i, c.j)].pieces;
+    Cell& into = g.cells[key(c.i, c.j)];
+    if (into.coarse) continue;
+    auto& pieces = into.pieces;
     auto it = std::find_if(pieces.begin(), pieces.end(),
                            [&](const Piece& x) { return x.a == c.piece.a && x.b == c.piece.b; });
     if (it == pieces.end()) {
@@ -173,6 +175,12 @@ double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d
     } else if ((it->count += c.piece.count) == 0) {
       *it = pieces.back();  // a piece and its reverse cancel
       pieces.pop_back();
+    }
+    if (pieces.size() > kMaxPieces) {
+      into.coarse = true;
+      pieces.clear();
+      pieces.shrink_to_fit();
+      exact_ = false;
     }
     g.dirty.emplace_back(c.i, c.j);
   }

@@ -54,7 +54,12 @@ class LiveDeviation {
     double integral = 0.0;  // signed integral of w over the cell
     double abs = 0.0;       // ∫|w| over the cell (its share of the value)
     std::vector<Piece> pieces;
+    bool coarse = false;  // gave up its pieces (more than kMaxPieces): |integral| only
   };
+  // A cell the cut passes over and over (a trainee working one place back and forth)
+  // would collect ever more pieces; past this many it keeps the integral only, so the
+  // cost per point stays bounded (exact() turns false).
+  static constexpr std::size_t kMaxPieces = 64;
   struct PlaneGrid {
     std::unordered_map<std::int64_t, Cell> cells;
     std::vector<double> scratch;
