@@ -228,10 +228,6 @@ class TriangleBvh {
   std::vector<std::uint32_t> blockLeaf_;  // per block: its leaf node
   std::vector<std::uint32_t> faceSlot_;   // per face index: block * 4 + position, or kNone
   std::vector<BlockVerts> blockVerts_;    // per block: distinct corners
-  struct alignas(16) Float4 {
-    float v[4];
-  };
-  std::vector<Float4> vertexScratch_;     // refit(): positions in float
   std::vector<double> sweepArea_;         // build scratch
   std::vector<std::uint32_t> inner_;      // inner nodes of the last build, children before parents
   std::vector<std::uint32_t> innerLate_;  // leaves split since (fitted first, highest index first)
