@@ -265,10 +265,13 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
       }
     segs.push_back({cur, corner[0], w});
   };
+  std::vector<char> inside;  // segs[i] is a piece (not a closing run along the border)
   for (const Piece& pc : c.pieces) {
     segs.push_back({pc.a, pc.b, pc.count});
+    inside.resize(segs.size(), 1);
     if (onBorder(pc.b)) toCorner(pc.b, pc.count);
     if (onBorder(pc.a)) toCorner(pc.a, -pc.count);
+    inside.resize(segs.size(), 0);
   }
   // ∫ w of the closed set (shoelace about the corner), then B.
   double twice = 0.0;
@@ -283,8 +286,10 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
     xs.push_back(std::clamp(s.a.x(), xa, xb));
     xs.push_back(std::clamp(s.b.x(), xa, xb));
   }
+  // Crossings: only the pieces can cross (the closing runs lie on the border).
   for (std::size_t m = 0; m < segs.size(); ++m)
     for (std::size_t k = m + 1; k < segs.size(); ++k) {
+      if (!inside[m] || !inside[k]) continue;
       const Eigen::Vector2d r = segs[m].b - segs[m].a, t = segs[k].b - segs[k].a;
       const double den = r.x() * t.y() - r.y() * t.x();
       if (den == 0.0) continue;

@@ -59,7 +59,7 @@ class LiveDeviation {
   // A cell the cut passes over and over (a trainee working one place back and forth)
   // would collect ever more pieces; past this many it keeps the integral only, so the
   // cost per point stays bounded (exact() turns false).
-  static constexpr std::size_t kMaxPieces = 64;
+  static constexpr std::size_t kMaxPieces = 32;
   struct PlaneGrid {
     std::unordered_map<std::int64_t, Cell> cells;
     std::vector<double> scratch;
