@@ -1403,7 +1403,21 @@ struct CutEngine::Impl {
   // join the two layers (cut-out).
   void cutOut(Track& A, Track& B, const Vec3& motion) {
     bool done = false;
-    if (dbg()) std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << "\n";
+    if (dbg()) {
+      std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << " tips " << A.tip
+                << "," << B.tip << " chain";
+      for (Vertex x : A.chain) std::cerr << " " << x;
+      std::cerr << " Bchain";
+      for (Vertex x : B.chain) std::cerr << " " << x;
+      if (A.tip.isValid()) std::cerr << " pa " << meshOf(A.object).position(A.tip).transpose();
+      if (B.tip.isValid()) std::cerr << " pb " << meshOf(A.object).position(B.tip).transpose();
+      std::cerr << "\n";
+    }
+    // The pair's front may end at a wall apex next to B's tip (the layers opened out
+    // of step, e.g. the tissue moved between samples): that edge closes the front.
+    if (A.tip.isValid() && B.tip.isValid() && !A.chain.empty() && A.chain.back() != B.tip &&
+        meshOf(A.object).findEdge(A.chain.back(), B.tip).isValid())
+      A.chain.push_back(B.tip);
     if (A.tip.isValid() && B.tip.isValid() && motion.norm() > 1e-12 && !A.chain.empty() && A.chain.back() == B.tip) {
       SurfaceMesh& m = meshOf(A.object);
       const Vec3 pa = m.position(A.tip), pb = m.position(B.tip);
@@ -1416,7 +1430,9 @@ struct CutEngine::Impl {
         A.hasPending = B.hasPending = false;
         const Vertex start = A.tip;
         std::vector<Vertex> path{start};
-        if (walk(A, g, n, motion.normalized(), maxLen, A.tipDepth, A.tipDepth, &path) && A.alive) {
+        const bool walked = walk(A, g, n, motion.normalized(), maxLen, A.tipDepth, A.tipDepth, &path);
+        if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
+        if (walked && A.alive) {
           A.tip = start;
           done = close(A, B, path);
         } else if (path.size() > 1) {
@@ -1450,7 +1466,12 @@ struct CutEngine::Impl {
       // Both sides get this loop's shape: refuse to make slivers.
       std::vector<Vec3> pts;
       for (Vertex x : loop) pts.push_back(m.position(x));
-      if (loopQuality(m, loop) < 0.5 * p.snapDistance) return false;
+      const double q = loopQuality(m, loop);
+      if (dbg()) std::cerr << "close: loop of " << loop.size() << " quality " << q << "\n";
+      // The caps are the cut's cross-section beyond the tips: near a rounded or moved
+      // rim that is a thin crescent whatever the triangulation, and refusing it leaves
+      // the piece attached. Only a degenerate loop is refused.
+      if (!(q > 1e-3 * p.snapDistance)) return false;
     }
     std::vector<Edge> cuts;
     for (std::size_t i = 0; i < loop.size(); ++i) {
