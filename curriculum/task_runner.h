@@ -33,7 +33,7 @@ struct RunOptions {
   double grabJaw = 0.2;          // jaw opening at or below which the grasper is closed
   double seriesInterval = 0.05;  // s between points of the metric time series
   cutting::CutParams cut;
-  // Physics (task run --physics on, the default): the tissue is stepped while the
+  // Physics (task run --physics on; the CLI defaults to off): the tissue is stepped while the
   // trajectory plays and the grasper force is the sum of its penalty springs. Off:
   // no motion, and the force is the estimate home stiffness x grasper displacement.
   bool physics = true;

@@ -76,7 +76,7 @@ TEST(TaskCli, RunsAScriptedExpertAndNovice) {
     auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
                         " --rate 200 --out " + shellQuote(traj));
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    // A still tissue: the metrics' ranking (physics: RunsWithPhysicsByDefault).
+    // A still tissue: the metrics' ranking (physics: RunsWithPhysicsOnRequest).
     r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics off");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
@@ -110,7 +110,7 @@ TEST(TaskCli, RunsAScriptedExpertAndNovice) {
   EXPECT_GE(bands[0], bands[1]);
 }
 
-TEST(TaskCli, RunsWithPhysicsByDefault) {
+TEST(TaskCli, RunsWithPhysicsOnRequest) {
   // The scripted trainees grasp the slab's edge and retract it: the grasper's force
   // comes from the physics (penalty springs on the held vertices), the novice pulls
   // harder; --physics off gives the estimate; a bad value is refused.
@@ -121,7 +121,7 @@ TEST(TaskCli, RunsWithPhysicsByDefault) {
     auto r = runCommand(cli() + " task script --task " + task + " --level " + std::to_string(level) +
                         " --rate 250 --out " + shellQuote(traj));
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj));
+    r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics on");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["stretch_force"]["model"], "physics");
@@ -134,7 +134,7 @@ TEST(TaskCli, RunsWithPhysicsByDefault) {
     EXPECT_GT(j["stretch_force"]["mean_n"].get<double>(), 0.0);
     maxN[level / 2] = j["stretch_force"]["max_n"].get<double>();
     if (level == 0) {
-      r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj) + " --physics off");
+      r = runCommand(cli() + " task run --task " + task + " --trajectory " + shellQuote(traj));  // off by default
       ASSERT_EQ(r.exitCode, 0) << r.err;
       const auto e = nlohmann::json::parse(r.out);
       EXPECT_NE(e["stretch_force"]["model"].get<std::string>().find("estimate"), std::string::npos);
