@@ -362,16 +362,19 @@ double halfArea(const Box& b) {
 
 }  // namespace
 
+void TriangleBvh::makeLeaf(std::uint32_t node, const BuildItem* first, const BuildItem* last,
+                           const mesh::SurfaceMesh& m) {
+  std::array<std::uint32_t, kLeafCapacity> faces{};
+  const auto n = static_cast<std::size_t>(last - first);
+  for (std::size_t i = 0; i < n; ++i) faces[i] = first[i].face;
+  makeLeaf(node, faces.data(), n, m);
+}
+
 void TriangleBvh::buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last,
                             std::size_t depth) {
   maxDepth_ = std::max(maxDepth_, depth);
   const std::ptrdiff_t n = last - first;
-  if (n <= kBuildLeafSize) {
-    std::array<std::uint32_t, kLeafCapacity> faces{};
-    for (std::ptrdiff_t i = 0; i < n; ++i) faces[static_cast<std::size_t>(i)] = first[i].face;
-    makeLeaf(node, faces.data(), static_cast<std::size_t>(n), m);
-    return;
-  }
+  if (n <= kBuildLeafSize) return makeLeaf(node, first, last, m);
   float clo[3] = {kInf, kInf, kInf}, chi[3] = {-kInf, -kInf, -kInf};
   for (auto* p = first; p != last; ++p)
     for (int k = 0; k < 3; ++k) {
@@ -576,12 +579,7 @@ void TriangleBvh::buildSweep(const mesh::SurfaceMesh& m, std::uint32_t node, Bui
                              std::size_t depth) {
   maxDepth_ = std::max(maxDepth_, depth);
   const std::ptrdiff_t n = last - first;
-  if (n <= kBuildLeafSize) {
-    std::array<std::uint32_t, kLeafCapacity> faces{};
-    for (std::ptrdiff_t i = 0; i < n; ++i) faces[static_cast<std::size_t>(i)] = first[i].face;
-    makeLeaf(node, faces.data(), static_cast<std::size_t>(n), m);
-    return;
-  }
+  if (n <= kBuildLeafSize) return makeLeaf(node, first, last, m);
   // The split along the (Morton) order with the lowest cost nL A(L) + nR A(R).
   std::vector<double>& rightArea = sweepArea_;
   rightArea.resize(static_cast<std::size_t>(n));

@@ -205,6 +205,7 @@ class TriangleBvh {
   [[nodiscard]] std::uint32_t leafOf(mesh::Face f) const { return blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity]; }
 
   struct BuildItem;
+  void makeLeaf(std::uint32_t node, const BuildItem* first, const BuildItem* last, const mesh::SurfaceMesh& m);
   void buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, BuildItem* first, BuildItem* last, std::size_t depth);
   void buildMorton(const mesh::SurfaceMesh& m, std::uint32_t node, const std::uint64_t* keys, BuildItem* first,
                    BuildItem* last, std::size_t depth);

@@ -232,17 +232,6 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
 
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
 
-LD_AVX512 inline void applySpring512(const SpringChunk& c, std::size_t a, __m256d g) {
-  if (c.addLower) {
-    double* o = c.f4 + 4 * std::size_t{c.lo[a]};
-    _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), g));
-  }
-  if (c.oth[a] < c.writeLimit) {
-    double* fj = c.f4 + 4 * std::size_t{c.oth[a]};
-    _mm256_storeu_pd(fj, _mm256_sub_pd(_mm256_loadu_pd(fj), g));
-  }
-}
-
 LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
   const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5), threeHalves = _mm512_set1_pd(1.5);
   __m512d pe = zero;
@@ -281,7 +270,7 @@ LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
     const __m512d q = _mm512_maskz_mul_pd(pos, kst, r);
     alignas(64) double qs[8];
     _mm512_store_pd(qs, q);
-    for (std::size_t u = 0; u < cnt; ++u) applySpring512(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
+    for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
   }
   return _mm512_reduce_add_pd(pe);
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "sim/mesh/surface_mesh.h"
+#include "tests/sim/mesh/grid_mesh.h"
 
 namespace ld::mesh::test {
 
@@ -26,16 +27,7 @@ inline EditFingerprint editSequenceFingerprint() {
   EditFingerprint fp;
   for (int trial = 0; trial < 3; ++trial) {
     std::mt19937 rng(static_cast<std::uint32_t>(1234 + trial));
-    SurfaceMesh m;
-    const int n = 6;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) m.addVertex({double(i), double(j), 0.0});
-    auto v = [&](int i, int j) { return Vertex(j * (n + 1) + i); };
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        m.addFace(v(i, j), v(i + 1, j), v(i + 1, j + 1));
-        m.addFace(v(i, j), v(i + 1, j + 1), v(i, j + 1));
-      }
+    SurfaceMesh m = grid(6);
     auto etag = m.addEdgeProperty<int>("e:tag", 0);
     auto vtag = m.addVertexProperty<int>("v:tag", 0);
     auto ftag = m.addFaceProperty<int>("f:tag", 0);

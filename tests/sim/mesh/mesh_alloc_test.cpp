@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "sim/mesh/surface_mesh.h"
+#include "tests/sim/mesh/grid_mesh.h"
 
 namespace {
 std::uint64_t gAllocations = 0;
@@ -33,15 +34,7 @@ namespace {
 // n x n grid with an edge and a face property, copied (as the cutter copies a model),
 // with room reserved for `edits` more edits.
 SurfaceMesh copiedGrid(int n, std::size_t edits) {
-  SurfaceMesh m;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) m.addVertex({double(i), double(j), 0.0});
-  auto v = [&](int i, int j) { return Vertex(j * (n + 1) + i); };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.addFace(v(i, j), v(i + 1, j), v(i + 1, j + 1));
-      m.addFace(v(i, j), v(i + 1, j + 1), v(i, j + 1));
-    }
+  SurfaceMesh m = test::grid(n);
   m.addVertexProperty<Point>("v:home", Point::Zero());
   m.addEdgeProperty<double>("e:rest", 1.0);
   m.addFaceProperty<int>("f:tag", 2);

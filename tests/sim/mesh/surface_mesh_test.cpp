@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/sim/mesh/edit_fingerprint.h"
+#include "tests/sim/mesh/grid_mesh.h"
 #include "tests/support/test_support.h"
 
 namespace ld::mesh {
@@ -37,19 +38,7 @@ SurfaceMesh tetrahedron() {
   return m;
 }
 
-// n x n grid of quads on [0,n]^2, each split into two triangles.
-SurfaceMesh grid(int n) {
-  SurfaceMesh m;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) m.addVertex({double(i), double(j), 0.0});
-  auto v = [&](int i, int j) { return Vertex(j * (n + 1) + i); };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.addFace(v(i, j), v(i + 1, j), v(i + 1, j + 1));
-      m.addFace(v(i, j), v(i + 1, j + 1), v(i, j + 1));
-    }
-  return m;
-}
+using test::grid;
 
 long euler(const SurfaceMesh& m) {
   return static_cast<long>(m.nVertices()) - static_cast<long>(m.nEdges()) + static_cast<long>(m.nFaces());
