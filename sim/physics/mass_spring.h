@@ -19,6 +19,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <span>
 #include <string>
 #include <string_view>
@@ -123,6 +124,18 @@ class WorkerSlot {
   std::unique_ptr<Worker> worker_;
 };
 
+// 64-byte aligned storage (vector loads of a rank never straddle a cache line).
+template <class T>
+struct CacheLineAllocator {
+  using value_type = T;
+  CacheLineAllocator() = default;
+  template <class U>
+  CacheLineAllocator(const CacheLineAllocator<U>&) {}  // NOLINT: rebinding
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64})); }
+  void deallocate(T* p, std::size_t) { ::operator delete (p, std::align_val_t{64}); }
+  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) { return true; }
+};
+
 struct Spring {
   std::uint32_t i, j;  // i < j
   double rest, k;
@@ -156,10 +169,16 @@ struct Cache {
   std::vector<std::uint32_t> lower;  // CSR slot → its lower vertex (for the kernels)
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
-  // Two threads: vertices [0, splitVertex) and [splitVertex, n); `cross` lists the
-  // springs from the first half to the second (the second thread adds their share).
-  std::size_t splitVertex = 0;
-  std::vector<std::uint32_t> cross;
+  // The symplectic step's vertex-centric layout (spring_kernel.h, BlockStep): blocks
+  // of 8 vertices, each with ranks of 8 lanes (far end, k, rest of every incident
+  // spring: each spring appears at both ends). halfSlot[2q], halfSlot[2q + 1]: where
+  // CSR slot q sits (lane index 8·rank + lane) at its lower and its upper end, so an
+  // edit can zero both. extraBlock: blocks touched by added springs (their forces go
+  // through f4). Two threads: blocks [0, splitBlock) and the rest.
+  std::vector<std::uint32_t> rankStart, rankJ, halfSlot;
+  std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
+  std::vector<std::uint8_t> extraBlock;
+  std::size_t splitBlock = 0;
   std::size_t maxOut = 0;  // most springs at one vertex
   bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
   WorkerSlot worker;
@@ -171,8 +190,7 @@ struct Cache {
   // The symplectic sweep's force accumulator and the force pass's, 4 doubles a vertex
   // (x, y, z, unused: one 4-wide update per spring end); zero between sweeps.
   std::vector<double> f4, scatter4;
-  std::vector<double> chunk[2];  // per-thread spring scratch
-  std::vector<double> lambda;    // xpbd multipliers (springs)
+  std::vector<double> lambda;  // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
   std::uint64_t localUpdates = 0;
 };

@@ -44,27 +44,41 @@ struct SpringChunk {
 // Returns Σ k (l − rest)² over the chunk (twice the energy).
 double springForces(Kernel kern, const SpringChunk& c);
 
-// Integration of nv consecutive vertices (pointers already at the chunk's first
-// vertex; positions and velocities 3 doubles a vertex): the force is f4 (4 a vertex;
-// zeroed here for the next step);
+// The symplectic step, vertex-centric: vertices in blocks of kBlock consecutive
+// ones; block b's incident springs (both directions: each spring is seen from both
+// ends) are the ranks [rankStart[b], rankStart[b+1]). Rank r holds kBlock lanes (lane
+// l = vertex kBlock·b + l): the far end j, k and rest of that vertex's r-th neighbour
+// (by index; the order the old lower-vertex scatter summed in), padded with k = rest =
+// 0 and j = kBlock·b. Each vertex sums its own springs (no scatter, no shared writes;
+// any split into block ranges gives the same bits), adds f4 (4 doubles a vertex, set
+// by the springs added since the last rebuild) on blocks flagged in `extra` (and zeroes
+// it), and integrates:
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
-// x1 = x0 + dt·v1, live = (im ≠ 0).
-struct FinishChunk {
-  double* f4 = nullptr;
+// x1 = x0 + dt·v1, live = (im ≠ 0). All arrays are whole (indexed by vertex);
+// positions and velocities 3 doubles a vertex.
+inline constexpr std::size_t kBlock = 8;
+struct BlockStep {
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
   const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
-  std::size_t nv = 0;
+  const std::uint32_t* rankStart = nullptr;
+  const std::uint32_t* rankJ = nullptr;  // kBlock per rank
+  const double *rankK = nullptr, *rankRest = nullptr;
+  double* f4 = nullptr;
+  const std::uint8_t* extra = nullptr;  // per block: f4 holds forces for it
+  std::size_t n = 0;                    // vertices
+  std::size_t b0 = 0, b1 = 0;           // blocks to step
   double dt = 0, damp = 1, homeK = 0;
   double g[3] = {0, 0, 0};
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
 // Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it
-// bounds the largest |v1|²), and Σ stiffness·|v1|² (bounds the spring energy change).
+// bounds the largest |v1|²), Σ stiffness·|v1|² (bounds the spring energy change), and
+// Σ k (l − rest)² over the ranks at x0 (four times the spring energy).
 struct FinishSums {
-  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0;
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0, pe = 0;
 };
-void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s);
+void blockStep(Kernel kern, const BlockStep& c, FinishSums& s);
 
 }  // namespace ld::physics::detail
