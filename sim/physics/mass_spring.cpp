@@ -5,6 +5,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <numeric>
 #include <thread>
 #include <utility>
 
@@ -221,12 +223,14 @@ void sizeScratch(Cache& c, std::size_t n) {
   for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n + 8, 0.0);
 }
 
-// The symplectic step's blocks from the CSR: each vertex's neighbours in index order
+// The symplectic step's groups from the CSR: each vertex's neighbours in index order
 // (the lower ones come from earlier vertices' CSR rows, in row order, then its own row,
-// sorted), one rank per neighbour position, padded to the block's largest degree.
+// sorted), one rank per neighbour position; a group's lanes sorted by degree
+// (descending, stable), each block padded to its largest degree.
 void buildBlocks(Cache& c, std::size_t n) {
-  constexpr std::size_t B = detail::kBlock;
-  const std::size_t ns = c.first[n], nb = (n + B - 1) / B;
+  constexpr std::size_t L = detail::kLanes, G = detail::kGroup;
+  if (3 * n >= std::numeric_limits<std::uint32_t>::max()) throw PhysicsError("mesh too large for the spring cache");
+  const std::size_t ns = c.first[n], ng = (n + G - 1) / G;
   std::vector<std::uint32_t> adjStart(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i)
     for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
@@ -243,34 +247,47 @@ void buildBlocks(Cache& c, std::size_t n) {
       adjSlot[at] = q;
       atUpper[at] = 1;
     }
-  c.rankStart.assign(nb + 1, 0);
-  for (std::size_t b = 0; b < nb; ++b) {
-    std::uint32_t deg = 0;
-    for (std::size_t i = B * b; i < std::min(n, B * (b + 1)); ++i) deg = std::max(deg, adjStart[i + 1] - adjStart[i]);
-    c.rankStart[b + 1] = c.rankStart[b] + deg;
+  auto degree = [&](std::size_t i) { return i < n ? static_cast<long>(adjStart[i + 1] - adjStart[i]) : -1L; };
+  c.rankStart.assign(2 * ng + 1, 0);
+  c.slotVertex.resize(G * ng);
+  c.vertexSlot.resize(G * ng);
+  for (std::size_t g = 0; g < ng; ++g) {
+    std::uint8_t* order = c.slotVertex.data() + G * g;
+    std::iota(order, order + G, std::uint8_t{0});
+    std::stable_sort(order, order + G, [&](std::uint8_t a, std::uint8_t b) { return degree(G * g + a) > degree(G * g + b); });
+    for (std::size_t slot = 0; slot < G; ++slot) c.vertexSlot[G * g + order[slot]] = static_cast<std::uint8_t>(slot);
+    for (std::size_t h = 0; h < 2; ++h)  // the first lane of a block has its largest degree
+      c.rankStart[2 * g + h + 1] =
+          c.rankStart[2 * g + h] + static_cast<std::uint32_t>(std::max(0L, degree(G * g + order[L * h])));
   }
-  const std::size_t lanes = B * c.rankStart[nb];
-  c.rankJ.assign(lanes, 0);
+  const std::size_t lanes = L * c.rankStart[2 * ng];
+  c.rankX.assign(lanes, 0);
   c.rankK.assign(lanes, 0.0);
   c.rankRest.assign(lanes, 0.0);
   c.halfSlot.assign(2 * ns, 0);
-  for (std::size_t b = 0; b < nb; ++b) {
-    for (std::uint32_t r = c.rankStart[b]; r < c.rankStart[b + 1]; ++r)
-      std::fill_n(c.rankJ.begin() + static_cast<std::ptrdiff_t>(B * r), B, static_cast<std::uint32_t>(B * b));
-    for (std::size_t i = B * b; i < std::min(n, B * (b + 1)); ++i)
+  for (std::size_t g = 0; g < ng; ++g) {
+    const auto pad = static_cast<std::uint32_t>(3 * G * g);
+    std::fill(c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g]),
+              c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g + 2]), pad);
+    for (std::size_t slot = 0; slot < G; ++slot) {
+      const std::size_t i = G * g + c.slotVertex[G * g + slot];
+      if (i >= n) continue;
+      const std::size_t blk = 2 * g + slot / L, lane = slot % L;
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
         const std::uint32_t q = adjSlot[a];
-        const std::size_t at = B * (c.rankStart[b] + (a - adjStart[i])) + (i - B * b);
-        c.rankJ[at] = atUpper[a] ? c.lower[q] : c.other[q];
+        const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
+        c.rankX[at] = 3 * (atUpper[a] ? c.lower[q] : c.other[q]);
         c.rankK[at] = c.k[q];
         c.rankRest[at] = c.rest[q];
         c.halfSlot[2 * q + atUpper[a]] = static_cast<std::uint32_t>(at);
       }
+    }
   }
-  c.extraBlock.assign(nb, 0);
+  c.extraGroup.assign(ng, 0);
   // Two threads: about half of the work (lanes + vertices) on each side.
-  c.splitBlock = 0;
-  while (c.splitBlock < nb && 2 * (B * c.rankStart[c.splitBlock] + B * c.splitBlock) < lanes + B * nb) ++c.splitBlock;
+  c.splitGroup = 0;
+  while (c.splitGroup < ng && 2 * (L * c.rankStart[2 * c.splitGroup] + G * c.splitGroup) < lanes + G * ng)
+    ++c.splitGroup;
 }
 
 // One O(V + E) pass over the mesh's arrays.
@@ -365,9 +382,15 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
   c.mass.resize(n, 0.0);
   c.vertexStiffness.resize(n, 0.0);
   c.nVertexSlots = n;
-  const std::size_t nb = (n + detail::kBlock - 1) / detail::kBlock;  // new blocks: no ranks
-  c.rankStart.resize(nb + 1, c.rankStart.back());
-  c.extraBlock.resize(nb, 0);
+  // New groups of vertices: no ranks, lanes in vertex order.
+  const std::size_t ng = (n + detail::kGroup - 1) / detail::kGroup;
+  for (std::size_t g = c.extraGroup.size(); g < ng; ++g)
+    for (std::size_t slot = 0; slot < detail::kGroup; ++slot) {
+      c.slotVertex.push_back(static_cast<std::uint8_t>(slot));
+      c.vertexSlot.push_back(static_cast<std::uint8_t>(slot));
+    }
+  c.rankStart.resize(2 * ng + 1, c.rankStart.back());
+  c.extraGroup.resize(ng, 0);
   c.edgeSlot.resize(m.edgesSize(), kNoSlot);
   std::vector<std::uint32_t> touched;
   for (mesh::Vertex v : vv) touched.push_back(v.idx());
@@ -401,7 +424,7 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
     const Spring sp{std::min(a, b), std::max(a, b), restP[idx], kP[idx]};
     c.edgeSlot[idx] = static_cast<std::uint32_t>(c.springs.size());
     c.springs.push_back(sp);
-    c.extraBlock[sp.i / detail::kBlock] = c.extraBlock[sp.j / detail::kBlock] = 1;
+    c.extraGroup[sp.i / detail::kGroup] = c.extraGroup[sp.j / detail::kGroup] = 1;
     c.vertexStiffness[sp.i] += sp.k;
     c.vertexStiffness[sp.j] += sp.k;
     c.maxVertexStiffness = std::max({c.maxVertexStiffness, c.vertexStiffness[sp.i], c.vertexStiffness[sp.j]});
@@ -681,8 +704,8 @@ struct SymplecticArgs {
   detail::Kernel kernel;
 };
 
-// Blocks [b0, b1) of the symplectic step: springs, integration, sums.
-SweepSums symplecticBlocks(const SymplecticArgs& a, std::size_t b0, std::size_t b1) {
+// Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
+SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t g1) {
   const View& w = *a.w;
   const Cache& c = *a.c;
   detail::BlockStep bs;
@@ -696,14 +719,16 @@ SweepSums symplecticBlocks(const SymplecticArgs& a, std::size_t b0, std::size_t 
   bs.x1 = raw(a.x1);
   bs.v1 = raw(a.v1);
   bs.rankStart = c.rankStart.data();
-  bs.rankJ = c.rankJ.data();
+  bs.rankX = c.rankX.data();
   bs.rankK = c.rankK.data();
   bs.rankRest = c.rankRest.data();
   bs.f4 = a.f4;
-  bs.extra = c.extraBlock.data();
+  bs.slotVertex = c.slotVertex.data();
+  bs.vertexSlot = c.vertexSlot.data();
+  bs.extra = c.extraGroup.data();
   bs.n = w.n;
-  bs.b0 = b0;
-  bs.b1 = b1;
+  bs.g0 = g0;
+  bs.g1 = g1;
   bs.dt = a.dt;
   bs.damp = 1.0 - a.dt * w.c;
   bs.homeK = w.homeK;
@@ -729,7 +754,7 @@ struct SymplecticJob {
   static void run(void* p) {
     auto* j = static_cast<SymplecticJob*>(p);
     const Cache& c = *j->args->c;
-    j->sums = symplecticBlocks(*j->args, c.splitBlock, c.rankStart.size() - 1);
+    j->sums = symplecticGroups(*j->args, c.splitGroup, c.extraGroup.size());
   }
 };
 
@@ -743,15 +768,15 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
   c.forceZero = false;
   const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
   const double added = addedSprings(w, raw(x0), f4);
-  const std::size_t nb = c.rankStart.size() - 1;
+  const std::size_t ng = c.extraGroup.size();
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
-    sums = symplecticBlocks(args, 0, nb);
+    sums = symplecticGroups(args, 0, ng);
   } else {
     detail::Worker& worker = c.worker.get();
     SymplecticJob job{&args, {}};
     worker.start(&SymplecticJob::run, &job);
-    sums = symplecticBlocks(args, 0, c.splitBlock);
+    sums = symplecticGroups(args, 0, c.splitGroup);
     worker.wait();
     sums.add(job.sums);
   }

@@ -169,16 +169,17 @@ struct Cache {
   std::vector<std::uint32_t> lower;  // CSR slot → its lower vertex (for the kernels)
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
-  // The symplectic step's vertex-centric layout (spring_kernel.h, BlockStep): blocks
-  // of 8 vertices, each with ranks of 8 lanes (far end, k, rest of every incident
-  // spring: each spring appears at both ends). halfSlot[2q], halfSlot[2q + 1]: where
-  // CSR slot q sits (lane index 8·rank + lane) at its lower and its upper end, so an
-  // edit can zero both. extraBlock: blocks touched by added springs (their forces go
-  // through f4). Two threads: blocks [0, splitBlock) and the rest.
-  std::vector<std::uint32_t> rankStart, rankJ, halfSlot;
+  // The symplectic step's vertex-centric layout (spring_kernel.h, BlockStep): groups
+  // of 16 vertices, two blocks of 8 lanes each (lanes sorted by degree: slotVertex,
+  // vertexSlot), each block with ranks of 8 lanes (offset 3·j of the far end, k, rest
+  // of every incident spring: each spring appears at both ends). halfSlot[2q],
+  // halfSlot[2q + 1]: where CSR slot q sits (8·rank + lane) at its lower and its upper
+  // end, so an edit can zero both. extraGroup: groups touched by added springs (their
+  // forces go through f4). Two threads: groups [0, splitGroup) and the rest.
+  std::vector<std::uint32_t> rankStart, rankX, halfSlot;
   std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
-  std::vector<std::uint8_t> extraBlock;
-  std::size_t splitBlock = 0;
+  std::vector<std::uint8_t> slotVertex, vertexSlot, extraGroup;
+  std::size_t splitGroup = 0;
   std::size_t maxOut = 0;  // most springs at one vertex
   bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
   WorkerSlot worker;

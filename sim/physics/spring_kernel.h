@@ -44,31 +44,37 @@ struct SpringChunk {
 // Returns Σ k (l − rest)² over the chunk (twice the energy).
 double springForces(Kernel kern, const SpringChunk& c);
 
-// The symplectic step, vertex-centric: vertices in blocks of kBlock consecutive
-// ones; block b's incident springs (both directions: each spring is seen from both
-// ends) are the ranks [rankStart[b], rankStart[b+1]). Rank r holds kBlock lanes (lane
-// l = vertex kBlock·b + l): the far end j, k and rest of that vertex's r-th neighbour
-// (by index; the order the old lower-vertex scatter summed in), padded with k = rest =
-// 0 and j = kBlock·b. Each vertex sums its own springs (no scatter, no shared writes;
-// any split into block ranges gives the same bits), adds f4 (4 doubles a vertex, set
-// by the springs added since the last rebuild) on blocks flagged in `extra` (and zeroes
-// it), and integrates:
+// The symplectic step, vertex-centric. Vertices come in groups of kGroup = 16
+// consecutive ones, split into two blocks of kLanes = 8 lanes, one vertex a lane;
+// lanes are sorted by degree within the group (slotVertex: the vertex, as an offset in
+// the group, of each lane slot; vertexSlot: the inverse), so that a block of
+// high-degree vertices and one of low-degree vertices pad less than consecutive ones
+// would. Block b (2 a group) holds ranks [rankStart[b], rankStart[b+1]); rank r has,
+// for every lane, the far end (rankX = 3·j, the offset of x_j), k and rest of that
+// lane's vertex's r-th neighbour (by index: the order the lower-vertex scatter summed
+// in), padded with k = rest = 0 and the group's first vertex. Each vertex sums its own
+// springs (each spring is evaluated at both ends: no scatter, no shared writes; any
+// split into group ranges gives the same bits), adds f4 (4 doubles a vertex, set by the
+// springs added since the last rebuild) on groups flagged in `extra` (and zeroes it),
+// and integrates:
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
 // x1 = x0 + dt·v1, live = (im ≠ 0). All arrays are whole (indexed by vertex);
 // positions and velocities 3 doubles a vertex.
-inline constexpr std::size_t kBlock = 8;
+inline constexpr std::size_t kLanes = 8;
+inline constexpr std::size_t kGroup = 16;
 struct BlockStep {
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
   const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
-  const std::uint32_t* rankStart = nullptr;
-  const std::uint32_t* rankJ = nullptr;  // kBlock per rank
+  const std::uint32_t* rankStart = nullptr;  // per block
+  const std::uint32_t* rankX = nullptr;      // kLanes per rank
   const double *rankK = nullptr, *rankRest = nullptr;
+  const std::uint8_t *slotVertex = nullptr, *vertexSlot = nullptr;  // kGroup per group
   double* f4 = nullptr;
-  const std::uint8_t* extra = nullptr;  // per block: f4 holds forces for it
+  const std::uint8_t* extra = nullptr;  // per group: f4 holds forces for it
   std::size_t n = 0;                    // vertices
-  std::size_t b0 = 0, b1 = 0;           // blocks to step
+  std::size_t g0 = 0, g1 = 0;           // groups to step
   double dt = 0, damp = 1, homeK = 0;
   double g[3] = {0, 0, 0};
 };
