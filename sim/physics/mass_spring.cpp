@@ -254,7 +254,8 @@ void buildBlocks(Cache& c, std::size_t n) {
   for (std::size_t g = 0; g < ng; ++g) {
     std::uint8_t* order = c.slotVertex.data() + G * g;
     std::iota(order, order + G, std::uint8_t{0});
-    std::stable_sort(order, order + G, [&](std::uint8_t a, std::uint8_t b) { return degree(G * g + a) > degree(G * g + b); });
+    std::stable_sort(order, order + G,
+                     [&](std::uint8_t a, std::uint8_t b) { return degree(G * g + a) > degree(G * g + b); });
     for (std::size_t slot = 0; slot < G; ++slot) c.vertexSlot[G * g + order[slot]] = static_cast<std::uint8_t>(slot);
     for (std::size_t h = 0; h < 2; ++h)  // the first lane of a block has its largest degree
       c.rankStart[2 * g + h + 1] =

@@ -226,8 +226,8 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
 
 // Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
 // springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
-LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt,
-                             __m256d* fa, __m256d& pe) {
+LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
+                             __m256d& pe) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
   __m256d xi[4];
@@ -447,8 +447,8 @@ LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_
   const std::size_t b = 3 * t;
   __m512d F[3];
   for (int r = 0; r < 3; ++r)
-    F[r] = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(f[0], k.toFlat[r], f[1]), kRegroup.flatZ[r],
-                                      k.toFlatZ[r], f[2]);
+    F[r] = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(f[0], k.toFlat[r], f[1]), kRegroup.flatZ[r], k.toFlatZ[r],
+                                      f[2]);
   if (extra) {
     // Forces of the springs added since the rebuild (f4, 4 a vertex; zeroed here).
     __m512d fa[4];
@@ -458,8 +458,7 @@ LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_
       fa[u] = _mm512_maskz_loadu_pd(two, f4);
       _mm512_mask_storeu_pd(f4, two, k.zero);
     }
-    for (int r = 0; r < 3; ++r)
-      F[r] = _mm512_add_pd(F[r], _mm512_permutex2var_pd(fa[r], k.regroup[r], fa[r + 1]));
+    for (int r = 0; r < 3; ++r) F[r] = _mm512_add_pd(F[r], _mm512_permutex2var_pd(fa[r], k.regroup[r], fa[r + 1]));
   }
   const __mmask8 vm = __mmask8((1u << rem) - 1u);
   const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
