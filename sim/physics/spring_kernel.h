@@ -1,12 +1,13 @@
 #pragma once
-// The symplectic step's inner loops (internal to sim/physics), in three builds chosen
-// at run time: portable scalar code, AVX2+FMA (4 springs or vertices a lane group)
-// and AVX-512 (8). All are double precision. Every lane computes the same operations
-// whatever the group it falls in (tails are masked or padded, never done by a
-// different scalar loop), so a spring's or a vertex's result does not depend on where
-// a chunk starts: the two-thread step stays bit-identical to one thread on each path.
-// Paths differ from each other in the last bits (fused multiply-add; the AVX-512 path
-// takes 1/l from rsqrt14 and two Newton steps, within about two ulp).
+// The spring loops (internal to sim/physics) in three builds chosen at run time:
+// portable scalar code, AVX2+FMA (4 lanes) and AVX-512 (8). All are double precision:
+// the symplectic step (blockStep: vertex-centric, each vertex sums its own springs) and
+// the force pass of the other integrators (springForces: each spring once, scattered to
+// both ends). Every lane computes the same operations whatever the group it falls in
+// (tails are masked or padded, never done by a different scalar loop), so a vertex's
+// result does not depend on where a thread's range starts: the two-thread step stays
+// bit-identical to one thread on each path.
+// Paths differ from each other in the last bits (fused multiply-add).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
