@@ -148,10 +148,11 @@ struct Spring {
 // layoutVersion() (compaction, copy, assignment), after Dynamics::invalidate(), or
 // when the added springs exceed an eighth of the CSR ones. Every spring is
 // stored once, at its lower vertex (CSR: springs of vertex i are
-// [first[i], first[i+1]), sorted by the other vertex), so a single sweep over the
-// vertices in mesh order finishes each vertex's force as soon as its own springs are
-// done: the symplectic step sums forces, integrates, and does the monitor's
-// bookkeeping in one pass. Memory order follows the mesh's vertex order.
+// [first[i], first[i+1]), sorted by the other vertex): the force pass of the other
+// integrators sweeps it. The symplectic step has its own vertex-centric copy (each
+// spring at both ends, in groups of 16 vertices; see spring_kernel.h), so it sums
+// forces, integrates and does the monitor's bookkeeping in one pass with no scatter.
+// Memory order follows the mesh's vertex order.
 struct Cache {
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
   std::uint64_t layoutVersion = std::numeric_limits<std::uint64_t>::max();
@@ -188,8 +189,9 @@ struct Cache {
   // Scratch (kept to avoid allocations per step).
   std::vector<Eigen::Vector3d> f, f2, xb, vb, k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, xt, vt;
   std::vector<Eigen::Vector3d> scatter;  // zero between sweeps (forces of finished vertices)
-  // The symplectic sweep's force accumulator and the force pass's, 4 doubles a vertex
-  // (x, y, z, unused: one 4-wide update per spring end); zero between sweeps.
+  // The added springs' forces for the symplectic step and the force pass's
+  // accumulator, 4 doubles a vertex (x, y, z, unused: one 4-wide update per spring
+  // end); zero between steps.
   std::vector<double> f4, scatter4;
   std::vector<double> lambda;  // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
