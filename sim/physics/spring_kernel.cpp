@@ -133,6 +133,27 @@ LD_AVX2 inline double hmax(__m256d v) {
   return _mm_cvtsd_f64(_mm_max_sd(s, _mm_unpackhi_pd(s, s)));
 }
 
+// Four (x, y, z, ·) vectors transposed to x, y and z registers (loads and shuffles
+// rather than gathers, which are slow on many CPUs).
+LD_AVX2 inline void transpose4(const __m256d* d, __m256d* xyz) {
+  const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
+  const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
+  xyz[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  xyz[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  xyz[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+}
+
+// k(l − rest)/l of four springs with difference vectors d (x, y, z registers), 0 where
+// l = 0; adds k(l − rest)² to pe.
+LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k, __m256d& pe) {
+  const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
+  const __m256d l = _mm256_sqrt_pd(l2);
+  const __m256d st = _mm256_sub_pd(l, rest);
+  const __m256d kst = _mm256_mul_pd(k, st);
+  pe = _mm256_fmadd_pd(kst, st, pe);
+  return _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ));
+}
+
 // One spring's force (x, y, z, 0) into its lower vertex's sum and out of its far end.
 LD_AVX2 inline void applySpring(const SpringChunk& c, std::size_t a, __m256d g) {
   if (c.addLower) {
@@ -154,25 +175,15 @@ LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
     // Lanes past m repeat the last spring; rest and k load as 0 there, nothing stored.
     const std::size_t cnt = std::min<std::size_t>(4, c.m - t);
     const __m256i mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(cnt)), lanes);
-    // Difference vectors (x, y, z, 0) of 4 springs, transposed (loads and shuffles
-    // rather than gathers, which are slow on many CPUs).
-    __m256d d[4];
+    // Difference vectors (x, y, z, 0) of 4 springs.
+    __m256d d[4], dxyz[3];
     for (std::size_t u = 0; u < 4; ++u) {
       const std::size_t a = t + std::min(u, cnt - 1);
       d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x + 3 * std::size_t{c.oth[a]}, xyz),
                            _mm256_maskload_pd(c.x + 3 * std::size_t{c.lo[a]}, xyz));
     }
-    const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
-    const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
-    const __m256d dx = _mm256_permute2f128_pd(t0, t2, 0x20);
-    const __m256d dy = _mm256_permute2f128_pd(t1, t3, 0x20);
-    const __m256d dz = _mm256_permute2f128_pd(t0, t2, 0x31);
-    const __m256d l2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_mul_pd(dx, dx)));
-    const __m256d l = _mm256_sqrt_pd(l2);
-    const __m256d st = _mm256_sub_pd(l, _mm256_maskload_pd(c.rest + t, mask));
-    const __m256d kst = _mm256_mul_pd(_mm256_maskload_pd(c.k + t, mask), st);
-    pe = _mm256_fmadd_pd(kst, st, pe);
-    const __m256d q = _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, zero, _CMP_GT_OQ));
+    transpose4(d, dxyz);
+    const __m256d q = springWeights4(dxyz, _mm256_maskload_pd(c.rest + t, mask), _mm256_maskload_pd(c.k + t, mask), pe);
     alignas(32) double qs[4];
     _mm256_store_pd(qs, q);
     for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
@@ -236,22 +247,13 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
   for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
     const std::size_t q0 = kLanes * r + h;
     const std::uint32_t* J = c.rankX + q0;
-    __m256d d[4];
+    __m256d d[4], dxyz[3];
     for (std::size_t u = 0; u < 4; ++u) d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x0 + J[u], xyz), xi[u]);
-    const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
-    const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
-    const __m256d dx = _mm256_permute2f128_pd(t0, t2, 0x20);
-    const __m256d dy = _mm256_permute2f128_pd(t1, t3, 0x20);
-    const __m256d dz = _mm256_permute2f128_pd(t0, t2, 0x31);
-    const __m256d l2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_mul_pd(dx, dx)));
-    const __m256d l = _mm256_sqrt_pd(l2);
-    const __m256d st = _mm256_sub_pd(l, _mm256_loadu_pd(c.rankRest + q0));
-    const __m256d kst = _mm256_mul_pd(_mm256_loadu_pd(c.rankK + q0), st);
-    pe = _mm256_fmadd_pd(kst, st, pe);
-    const __m256d w = _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, zero, _CMP_GT_OQ));
-    fx = _mm256_fmadd_pd(w, dx, fx);
-    fy = _mm256_fmadd_pd(w, dy, fy);
-    fz = _mm256_fmadd_pd(w, dz, fz);
+    transpose4(d, dxyz);
+    const __m256d w = springWeights4(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+    fx = _mm256_fmadd_pd(w, dxyz[0], fx);
+    fy = _mm256_fmadd_pd(w, dxyz[1], fy);
+    fz = _mm256_fmadd_pd(w, dxyz[2], fz);
   }
   const __m256d t0 = _mm256_unpacklo_pd(fx, fy), t1 = _mm256_unpackhi_pd(fx, fy);
   const __m256d t2 = _mm256_unpacklo_pd(fz, zero), t3 = _mm256_unpackhi_pd(fz, zero);
@@ -320,39 +322,50 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
 
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
 
+// Eight (x, y, z, ·) vectors transposed to x, y and z registers: 11 shuffles (with
+// 16 three-lane loads, that beats 3 gathers, ~12 cycles each here).
+LD_AVX512 inline void transpose8(const __m256d* d, __m512d* xyz) {
+  const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
+  __m512d p[4];
+  for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
+  const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
+  const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
+  xyz[0] = _mm512_shuffle_f64x2(xyLo, xyHi, 0x44);
+  xyz[1] = _mm512_shuffle_f64x2(xyLo, xyHi, 0xEE);
+  xyz[2] = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
+}
+
+// k(l − rest)/l of eight springs with difference vectors d (x, y, z registers), 0
+// where l = 0; adds k(l − rest)² to pe. sqrt and div: fast on this CPU's 512-bit units
+// (rsqrt14 and two Newton steps measured slower) and rounded as the scalar path is.
+LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d k, __m512d& pe) {
+  const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
+  const __mmask8 pos = _mm512_cmp_pd_mask(l2, _mm512_setzero_pd(), _CMP_GT_OQ);
+  const __m512d l = _mm512_sqrt_pd(l2);
+  const __m512d st = _mm512_sub_pd(l, rest);
+  const __m512d kst = _mm512_mul_pd(k, st);
+  pe = _mm512_fmadd_pd(kst, st, pe);
+  return _mm512_maskz_div_pd(pos, kst, l);
+}
+
 LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
   const __m512d zero = _mm512_setzero_pd();
   __m512d pe = zero;
   for (std::size_t t = 0; t < c.m; t += 8) {
     const std::size_t cnt = std::min<std::size_t>(8, c.m - t);
     const __mmask8 mk = __mmask8((1u << cnt) - 1u);
-    // Difference vectors (x, y, z, 0) of the 8 springs, transposed to x, y and z
-    // registers: 16 three-lane loads and 11 shuffles beat 6 gathers (slow on many
-    // CPUs, ~12 cycles each here).
-    // Lanes past m repeat the last spring (rest and k load as 0 there; not applied).
+    // Difference vectors (x, y, z, 0) of the 8 springs; lanes past m repeat the last
+    // spring (rest and k load as 0 there; not applied).
     __m256d d[8];
     for (std::size_t u = 0; u < 8; ++u) {
       const std::size_t a = t + std::min(u, cnt - 1);
       d[u] = _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.oth[a]}),
                            _mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.lo[a]}));
     }
-    __m512d p[4];
-    for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
-    const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
-    const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
-    const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
-    const __m512d dx = _mm512_shuffle_f64x2(xyLo, xyHi, 0x44);
-    const __m512d dy = _mm512_shuffle_f64x2(xyLo, xyHi, 0xEE);
-    const __m512d dz = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
-    const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    const __mmask8 pos = _mm512_cmp_pd_mask(l2, zero, _CMP_GT_OQ);
-    // sqrt and div (fast on this CPU's 512-bit units; rsqrt14 with two Newton steps
-    // measured slower) round as the scalar path does.
-    const __m512d l = _mm512_sqrt_pd(l2);
-    const __m512d st = _mm512_sub_pd(l, _mm512_maskz_loadu_pd(mk, c.rest + t));
-    const __m512d kst = _mm512_mul_pd(_mm512_maskz_loadu_pd(mk, c.k + t), st);
-    pe = _mm512_fmadd_pd(kst, st, pe);
-    const __m512d q = _mm512_maskz_div_pd(pos, kst, l);
+    __m512d dxyz[3];
+    transpose8(d, dxyz);
+    const __m512d q =
+        springWeights8(dxyz, _mm512_maskz_loadu_pd(mk, c.rest + t), _mm512_maskz_loadu_pd(mk, c.k + t), pe);
     alignas(64) double qs[8];
     _mm512_store_pd(qs, q);
     for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
@@ -395,7 +408,7 @@ struct Acc512 {
 
 struct Consts512 {
   __m512d zero, dt, damp, homeK, grav[3];
-  __m512i spread[3], regroup[3], xy, zz, toAxis[3], toAxisLast[3], toFlat[3], toFlatZ[3];
+  __m512i spread[3], regroup[3], toAxis[3], toAxisLast[3], toFlat[3], toFlatZ[3];
 };
 
 // One block's springs (lanes at positions xi, one register an axis), rank by rank:
@@ -403,35 +416,18 @@ struct Consts512 {
 // shuffles beat gathers here), summed per lane in registers.
 LD_AVX512 inline void springs8(const BlockStep& c, const Consts512& k, std::size_t blk, const __m512d* xi, __m512d* f,
                                __m512d& pe) {
-  __m512d fx = k.zero, fy = k.zero, fz = k.zero;
+  for (int a = 0; a < 3; ++a) f[a] = k.zero;
   for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
     const std::size_t q0 = kLanes * r;
     const std::uint32_t* J = c.rankX + q0;
     __m256d d[8];
     for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, c.x0 + J[u]);
-    __m512d p[4];
-    for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
-    const __m512d xyLo = _mm512_permutex2var_pd(p[0], k.xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], k.xy, p[3]);
-    const __m512d zLo = _mm512_permutex2var_pd(p[0], k.zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], k.zz, p[3]);
-    const __m512d dx = _mm512_sub_pd(_mm512_shuffle_f64x2(xyLo, xyHi, 0x44), xi[0]);
-    const __m512d dy = _mm512_sub_pd(_mm512_shuffle_f64x2(xyLo, xyHi, 0xEE), xi[1]);
-    const __m512d dz = _mm512_sub_pd(_mm512_shuffle_f64x2(zLo, zHi, 0x44), xi[2]);
-    const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    const __mmask8 pos = _mm512_cmp_pd_mask(l2, k.zero, _CMP_GT_OQ);
-    // sqrt and div: fast on this CPU's 512-bit units (rsqrt14 and two Newton steps
-    // measured slower) and rounded as the scalar path is.
-    const __m512d l = _mm512_sqrt_pd(l2);
-    const __m512d st = _mm512_sub_pd(l, _mm512_load_pd(c.rankRest + q0));
-    const __m512d kst = _mm512_mul_pd(_mm512_load_pd(c.rankK + q0), st);
-    pe = _mm512_fmadd_pd(kst, st, pe);
-    const __m512d w = _mm512_maskz_div_pd(pos, kst, l);
-    fx = _mm512_fmadd_pd(w, dx, fx);
-    fy = _mm512_fmadd_pd(w, dy, fy);
-    fz = _mm512_fmadd_pd(w, dz, fz);
+    __m512d dxyz[3];
+    transpose8(d, dxyz);
+    for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
+    const __m512d w = springWeights8(dxyz, _mm512_load_pd(c.rankRest + q0), _mm512_load_pd(c.rankK + q0), pe);
+    for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
   }
-  f[0] = fx;
-  f[1] = fy;
-  f[2] = fz;
 }
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
@@ -503,8 +499,6 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   k.regroup[0] = _mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9);
   k.regroup[1] = _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12);
   k.regroup[2] = _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14);
-  k.xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13);
-  k.zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
   for (int a = 0; a < 3; ++a) {
     k.toAxis[a] = idx512(kRegroup.toAxis[a]);
     k.toAxisLast[a] = idx512(kRegroup.toAxisLast[a]);
