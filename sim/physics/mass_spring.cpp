@@ -5,6 +5,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <numeric>
 #include <thread>
 #include <utility>
 
@@ -217,11 +219,76 @@ void noteJournal(Cache& c, const mesh::SurfaceMesh& m) {
 }
 
 void sizeScratch(Cache& c, std::size_t n) {
-  const std::size_t cap = std::max(kChunk, c.maxOut);
-  for (auto& ch : c.chunk)
-    if (ch.size() != 6 * cap) ch.assign(6 * cap, 0.0);
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->resize(n, Vec3::Zero());
   for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n + 8, 0.0);
+}
+
+// The symplectic step's groups from the CSR: each vertex's neighbours in index order
+// (the lower ones come from earlier vertices' CSR rows, in row order, then its own row,
+// sorted), one rank per neighbour position; a group's lanes sorted by degree
+// (descending, stable), each block padded to its largest degree.
+void buildBlocks(Cache& c, std::size_t n) {
+  constexpr std::size_t L = detail::kLanes, G = detail::kGroup;
+  if (3 * n >= std::numeric_limits<std::uint32_t>::max()) throw PhysicsError("mesh too large for the spring cache");
+  const std::size_t ns = c.first[n], ng = (n + G - 1) / G;
+  std::vector<std::uint32_t> adjStart(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
+      ++adjStart[i + 1];
+      ++adjStart[c.other[q] + 1];
+    }
+  for (std::size_t i = 0; i < n; ++i) adjStart[i + 1] += adjStart[i];
+  std::vector<std::uint32_t> adjSlot(adjStart[n]), fill(adjStart.begin(), adjStart.end() - 1);
+  std::vector<std::uint8_t> atUpper(adjStart[n]);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q) {
+      adjSlot[fill[i]++] = q;
+      const std::uint32_t at = fill[c.other[q]]++;
+      adjSlot[at] = q;
+      atUpper[at] = 1;
+    }
+  auto degree = [&](std::size_t i) { return i < n ? static_cast<long>(adjStart[i + 1] - adjStart[i]) : -1L; };
+  c.rankStart.assign(2 * ng + 1, 0);
+  c.slotVertex.resize(G * ng);
+  c.vertexSlot.resize(G * ng);
+  for (std::size_t g = 0; g < ng; ++g) {
+    std::uint8_t* order = c.slotVertex.data() + G * g;
+    std::iota(order, order + G, std::uint8_t{0});
+    std::stable_sort(order, order + G,
+                     [&](std::uint8_t a, std::uint8_t b) { return degree(G * g + a) > degree(G * g + b); });
+    for (std::size_t slot = 0; slot < G; ++slot) c.vertexSlot[G * g + order[slot]] = static_cast<std::uint8_t>(slot);
+    for (std::size_t h = 0; h < 2; ++h)  // the first lane of a block has its largest degree
+      c.rankStart[2 * g + h + 1] =
+          c.rankStart[2 * g + h] + static_cast<std::uint32_t>(std::max(0L, degree(G * g + order[L * h])));
+  }
+  const std::size_t lanes = L * c.rankStart[2 * ng];
+  c.rankX.assign(lanes, 0);
+  c.rankK.assign(lanes, 0.0);
+  c.rankRest.assign(lanes, 0.0);
+  c.halfSlot.assign(2 * ns, 0);
+  for (std::size_t g = 0; g < ng; ++g) {
+    const auto pad = static_cast<std::uint32_t>(3 * G * g);
+    std::fill(c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g]),
+              c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g + 2]), pad);
+    for (std::size_t slot = 0; slot < G; ++slot) {
+      const std::size_t i = G * g + c.slotVertex[G * g + slot];
+      if (i >= n) continue;
+      const std::size_t blk = 2 * g + slot / L, lane = slot % L;
+      for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
+        const std::uint32_t q = adjSlot[a];
+        const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
+        c.rankX[at] = 3 * (atUpper[a] ? c.lower[q] : c.other[q]);
+        c.rankK[at] = c.k[q];
+        c.rankRest[at] = c.rest[q];
+        c.halfSlot[2 * q + atUpper[a]] = static_cast<std::uint32_t>(at);
+      }
+    }
+  }
+  c.extraGroup.assign(ng, 0);
+  // Two threads: about half of the work (lanes + vertices) on each side.
+  c.splitGroup = 0;
+  while (c.splitGroup < ng && 2 * (L * c.rankStart[2 * c.splitGroup] + G * c.splitGroup) < lanes + G * ng)
+    ++c.splitGroup;
 }
 
 // One O(V + E) pass over the mesh's arrays.
@@ -289,13 +356,7 @@ void rebuildCache(Cache& c, const mesh::SurfaceMesh& m) {
     c.mass[v.idx()] = massP[v.idx()];
     c.invMass[v.idx()] = massP[v.idx()] > 0 ? 1.0 / massP[v.idx()] : 0.0;
   }
-  // Two-thread split: about half of the work (springs + vertices) on each side.
-  c.splitVertex = 0;
-  while (c.splitVertex < n && 2 * (c.first[c.splitVertex] + c.splitVertex) < ns + n) ++c.splitVertex;
-  c.cross.clear();
-  for (std::size_t i = 0; i < c.splitVertex; ++i)
-    for (std::uint32_t q = c.first[i]; q < c.first[i + 1]; ++q)
-      if (c.other[q] >= c.splitVertex) c.cross.push_back(q);
+  buildBlocks(c, n);
   c.f.assign(n, Vec3::Zero());
   c.scatter.assign(n, Vec3::Zero());
   c.f4.assign(4 * n + 8, 0.0);
@@ -322,6 +383,15 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
   c.mass.resize(n, 0.0);
   c.vertexStiffness.resize(n, 0.0);
   c.nVertexSlots = n;
+  // New groups of vertices: no ranks, lanes in vertex order.
+  const std::size_t ng = (n + detail::kGroup - 1) / detail::kGroup;
+  for (std::size_t g = c.extraGroup.size(); g < ng; ++g)
+    for (std::size_t slot = 0; slot < detail::kGroup; ++slot) {
+      c.slotVertex.push_back(static_cast<std::uint8_t>(slot));
+      c.vertexSlot.push_back(static_cast<std::uint8_t>(slot));
+    }
+  c.rankStart.resize(2 * ng + 1, c.rankStart.back());
+  c.extraGroup.resize(ng, 0);
   c.edgeSlot.resize(m.edgesSize(), kNoSlot);
   std::vector<std::uint32_t> touched;
   for (mesh::Vertex v : vv) touched.push_back(v.idx());
@@ -333,7 +403,11 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
     c.vertexStiffness[sp.i] -= sp.k;
     c.vertexStiffness[sp.j] -= sp.k;
     sp.k = sp.rest = 0.0;
-    if (slot < c.nCsr) c.k[slot] = c.rest[slot] = 0.0;
+    if (slot < c.nCsr) {
+      c.k[slot] = c.rest[slot] = 0.0;
+      for (int end = 0; end < 2; ++end)
+        c.rankK[c.halfSlot[2 * slot + end]] = c.rankRest[c.halfSlot[2 * slot + end]] = 0.0;
+    }
     --c.liveSprings;
   };
   std::vector<std::uint32_t> seen;
@@ -351,6 +425,7 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
     const Spring sp{std::min(a, b), std::max(a, b), restP[idx], kP[idx]};
     c.edgeSlot[idx] = static_cast<std::uint32_t>(c.springs.size());
     c.springs.push_back(sp);
+    c.extraGroup[sp.i / detail::kGroup] = c.extraGroup[sp.j / detail::kGroup] = 1;
     c.vertexStiffness[sp.i] += sp.k;
     c.vertexStiffness[sp.j] += sp.k;
     c.maxVertexStiffness = std::max({c.maxVertexStiffness, c.vertexStiffness[sp.i], c.vertexStiffness[sp.j]});
@@ -422,36 +497,16 @@ View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
 inline const double* raw(const Vec3* p) { return p->data(); }
 inline double* raw(Vec3* p) { return p->data(); }
 
-// Per-thread scratch for the crossing springs: rest, k and end indices.
-struct ChunkScratch {
-  double *rest, *k;
-  std::uint32_t *lo, *oth;
-  std::size_t cap;
-};
-
-ChunkScratch chunkScratch(std::vector<double>& buf) {
-  thread_local std::vector<std::uint32_t> lo, oth;
-  const std::size_t cap = buf.size() / 6;
-  if (lo.size() < cap) {
-    lo.assign(cap, 0);
-    oth.assign(cap, 0);
-  }
-  double* s = buf.data();
-  return {s, s + cap, lo.data(), oth.data(), cap};
-}
-
-// The spring sweep over the vertices [vBegin, vEnd) at positions x, in chunks of
-// vertices whose springs fit the scratch. The kernel adds each spring's force to its
-// lower vertex's slot in f4 and subtracts it from the far end's (only below
-// writeLimit: the first of two threads leaves the crossing springs' far ends to the
-// second). Every spring touching a chunk's vertices from below was done earlier (in
-// spring order), so their forces are then complete: done(v0, v1) integrates the
-// chunk and zeroes their slots for the next sweep. Returns the sweep's spring energy.
+// The force pass's spring sweep over all vertices at positions x, in chunks of
+// vertices with up to cap springs. The kernel adds each spring's force to its lower
+// vertex's slot in f4 and subtracts it from the far end's. Every spring touching a
+// chunk's vertices from below was done earlier (in spring order), so their forces are
+// then complete: done(v0, v1) takes them and zeroes their slots for the next sweep.
+// Returns the sweep's spring energy.
 template <class ChunkDone>
-double springSweep(const View& w, detail::Kernel kern, const double* x, double* f4, const ChunkScratch& sc,
-                   std::size_t vBegin, std::size_t vEnd, std::size_t writeLimit, ChunkDone&& done) {
+double springSweep(const View& w, detail::Kernel kern, const double* x, double* f4, std::size_t cap, ChunkDone&& done) {
   const std::uint32_t* __restrict first = w.first;
-  const std::size_t cap = sc.cap;
+  const std::size_t vBegin = 0, vEnd = w.n;
   double pe = 0.0;
   std::size_t v0 = vBegin;
   while (v0 < vEnd) {
@@ -466,41 +521,13 @@ double springSweep(const View& w, detail::Kernel kern, const double* x, double* 
     ch.rest = w.rest + sBase;
     ch.k = w.k + sBase;
     ch.f4 = f4;
-    ch.writeLimit = writeLimit;
+    ch.writeLimit = w.n;
     ch.m = first[v1] - sBase;
     pe += detail::springForces(kern, ch);
     done(v0, v1);
     v0 = v1;
   }
   return 0.5 * pe;
-}
-
-// The second thread's share of the crossing springs: their far ends' forces, added to
-// f4 before its sweep (in spring order, so each vertex's sum matches one thread's; the
-// same kernel computes each spring as the first thread's sweep does).
-void crossSprings(const View& w, detail::Kernel kern, const std::uint32_t* list, std::size_t count, const double* x,
-                  double* f4, const ChunkScratch& sc) {
-  for (std::size_t b = 0; b < count; b += sc.cap) {
-    const std::size_t m = std::min(sc.cap, count - b);
-    for (std::size_t t = 0; t < m; ++t) {
-      const Spring& sp = w.springs[list[b + t]];
-      sc.lo[t] = sp.i;
-      sc.oth[t] = sp.j;
-      sc.rest[t] = sp.rest;
-      sc.k[t] = sp.k;
-    }
-    detail::SpringChunk ch;
-    ch.x = x;
-    ch.lo = sc.lo;
-    ch.oth = sc.oth;
-    ch.rest = sc.rest;
-    ch.k = sc.k;
-    ch.addLower = false;
-    ch.f4 = f4;
-    ch.writeLimit = w.n;
-    ch.m = m;
-    (void)detail::springForces(kern, ch);
-  }
 }
 
 // The springs added since the last rebuild, into f at both ends (before the sweep, so
@@ -536,23 +563,22 @@ PotentialParts totalForceParts(const View& w, Cache& c, const Vec3* x, const Vec
   PotentialParts e;
   double home = 0.0;
   const double added = addedSprings(w, raw(x), acc);
-  const ChunkScratch sc = chunkScratch(c.chunk[0]);
-  e.spring =
-      added + springSweep(w, detail::activeKernel(), raw(x), acc, sc, 0, w.n, w.n, [&](std::size_t v0, std::size_t v1) {
-        for (std::size_t i = v0; i < v1; ++i) {
-          double* fa = acc + 4 * i;
-          const Vec3 fs(fa[0], fa[1], fa[2]);
-          std::fill_n(fa, 4, 0.0);
-          if (w.invMass[i] == 0.0) {
-            f[i].setZero();
-            continue;
-          }
-          const Vec3 dh = x[i] - w.home[i];
-          home += 0.5 * w.homeK * dh.squaredNorm();
-          f[i] = fs + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
-          if (v) f[i] -= (w.c * w.mass[i]) * v[i];
-        }
-      });
+  const std::size_t cap = std::max(kChunk, c.maxOut);
+  e.spring = added + springSweep(w, detail::activeKernel(), raw(x), acc, cap, [&](std::size_t v0, std::size_t v1) {
+               for (std::size_t i = v0; i < v1; ++i) {
+                 double* fa = acc + 4 * i;
+                 const Vec3 fs(fa[0], fa[1], fa[2]);
+                 std::fill_n(fa, 4, 0.0);
+                 if (w.invMass[i] == 0.0) {
+                   f[i].setZero();
+                   continue;
+                 }
+                 const Vec3 dh = x[i] - w.home[i];
+                 home += 0.5 * w.homeK * dh.squaredNorm();
+                 f[i] = fs + w.ext[i] + w.mass[i] * w.g - w.homeK * dh;
+                 if (v) f[i] -= (w.c * w.mass[i]) * v[i];
+               }
+             });
   e.home = home;
   return e;
 }
@@ -671,6 +697,7 @@ struct SweepSums {
 
 struct SymplecticArgs {
   const View* w;
+  const Cache* c;
   const Vec3 *x0, *v0;
   Vec3 *x1, *v1;
   double* f4;
@@ -678,35 +705,41 @@ struct SymplecticArgs {
   detail::Kernel kernel;
 };
 
-// Vertices [vBegin, vEnd) of the symplectic step: springs, integration, sums.
-SweepSums symplecticSweep(const SymplecticArgs& a, const ChunkScratch& sc, std::size_t vBegin, std::size_t vEnd,
-                          std::size_t writeLimit) {
+// Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
+SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t g1) {
   const View& w = *a.w;
-  detail::FinishChunk fc;
-  fc.dt = a.dt;
-  fc.damp = 1.0 - a.dt * w.c;
-  fc.homeK = w.homeK;
-  fc.g[0] = w.g.x();
-  fc.g[1] = w.g.y();
-  fc.g[2] = w.g.z();
+  const Cache& c = *a.c;
+  detail::BlockStep bs;
+  bs.x0 = raw(a.x0);
+  bs.v0 = raw(a.v0);
+  bs.home = raw(w.home);
+  bs.ext = raw(w.ext);
+  bs.invMass = w.invMass;
+  bs.mass = w.mass;
+  bs.stiffness = w.stiffness;
+  bs.x1 = raw(a.x1);
+  bs.v1 = raw(a.v1);
+  bs.rankStart = c.rankStart.data();
+  bs.rankX = c.rankX.data();
+  bs.rankK = c.rankK.data();
+  bs.rankRest = c.rankRest.data();
+  bs.f4 = a.f4;
+  bs.slotVertex = c.slotVertex.data();
+  bs.vertexSlot = c.vertexSlot.data();
+  bs.extra = c.extraGroup.data();
+  bs.n = w.n;
+  bs.g0 = g0;
+  bs.g1 = g1;
+  bs.dt = a.dt;
+  bs.damp = 1.0 - a.dt * w.c;
+  bs.homeK = w.homeK;
+  bs.g[0] = w.g.x();
+  bs.g[1] = w.g.y();
+  bs.g[2] = w.g.z();
   detail::FinishSums acc;
+  detail::blockStep(a.kernel, bs, acc);
   SweepSums s;
-  s.spring0 =
-      springSweep(w, a.kernel, raw(a.x0), a.f4, sc, vBegin, vEnd, writeLimit, [&](std::size_t v0, std::size_t v1) {
-        const std::size_t b = 3 * v0;
-        fc.f4 = a.f4 + 4 * v0;
-        fc.x0 = raw(a.x0) + b;
-        fc.v0 = raw(a.v0) + b;
-        fc.home = raw(w.home) + b;
-        fc.ext = raw(w.ext) + b;
-        fc.invMass = w.invMass + v0;
-        fc.mass = w.mass + v0;
-        fc.stiffness = w.stiffness + v0;
-        fc.x1 = raw(a.x1) + b;
-        fc.v1 = raw(a.v1) + b;
-        fc.nv = v1 - v0;
-        detail::finishSymplectic(a.kernel, fc, acc);
-      });
+  s.spring0 = 0.25 * acc.pe;  // every spring was seen from both ends
   s.ke1 = 0.5 * acc.ke1;
   s.home1 = 0.5 * w.homeK * acc.home1;
   s.v2 = acc.v2;
@@ -718,37 +751,34 @@ SweepSums symplecticSweep(const SymplecticArgs& a, const ChunkScratch& sc, std::
 
 struct SymplecticJob {
   const SymplecticArgs* args;
-  Cache* c;
   SweepSums sums;
   static void run(void* p) {
     auto* j = static_cast<SymplecticJob*>(p);
-    Cache& c = *j->c;
-    const ChunkScratch sc = chunkScratch(c.chunk[1]);
-    crossSprings(*j->args->w, j->args->kernel, c.cross.data(), c.cross.size(), raw(j->args->x0), j->args->f4, sc);
-    j->sums = symplecticSweep(*j->args, sc, c.splitVertex, j->args->w->n, j->args->w->n);
+    const Cache& c = *j->args->c;
+    j->sums = symplecticGroups(*j->args, c.splitGroup, c.extraGroup.size());
   }
 };
 
-// v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one sweep (two threads: each
-// sweeps its half; the second adds the crossing springs' far ends first, so the result
-// is bit-identical to one thread).
+// v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one pass over the vertex blocks
+// (two threads: each takes its blocks; a vertex's result does not depend on which
+// thread does it, so the result is bit-identical to one thread).
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
                           int threads) {
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
-  const SymplecticArgs args{&w, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
+  const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
   const double added = addedSprings(w, raw(x0), f4);
+  const std::size_t ng = c.extraGroup.size();
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
-    sums = symplecticSweep(args, chunkScratch(c.chunk[0]), 0, w.n, w.n);
+    sums = symplecticGroups(args, 0, ng);
   } else {
     detail::Worker& worker = c.worker.get();
-    SymplecticJob job{&args, &c, {}};
+    SymplecticJob job{&args, {}};
     worker.start(&SymplecticJob::run, &job);
-    sums = symplecticSweep(args, chunkScratch(c.chunk[0]), 0, c.splitVertex, c.splitVertex);
+    sums = symplecticGroups(args, 0, c.splitGroup);
     worker.wait();
-    // The first half's springs include the crossing ones; the second's energy is its own.
     sums.add(job.sums);
   }
   sums.spring0 += added;

@@ -19,6 +19,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <span>
 #include <string>
 #include <string_view>
@@ -123,6 +124,18 @@ class WorkerSlot {
   std::unique_ptr<Worker> worker_;
 };
 
+// 64-byte aligned storage (vector loads of a rank never straddle a cache line).
+template <class T>
+struct CacheLineAllocator {
+  using value_type = T;
+  CacheLineAllocator() = default;
+  template <class U>
+  CacheLineAllocator(const CacheLineAllocator<U>&) {}  // NOLINT: rebinding
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64})); }
+  void deallocate(T* p, std::size_t) { ::operator delete (p, std::align_val_t{64}); }
+  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) { return true; }
+};
+
 struct Spring {
   std::uint32_t i, j;  // i < j
   double rest, k;
@@ -135,10 +148,11 @@ struct Spring {
 // layoutVersion() (compaction, copy, assignment), after Dynamics::invalidate(), or
 // when the added springs exceed an eighth of the CSR ones. Every spring is
 // stored once, at its lower vertex (CSR: springs of vertex i are
-// [first[i], first[i+1]), sorted by the other vertex), so a single sweep over the
-// vertices in mesh order finishes each vertex's force as soon as its own springs are
-// done: the symplectic step sums forces, integrates, and does the monitor's
-// bookkeeping in one pass. Memory order follows the mesh's vertex order.
+// [first[i], first[i+1]), sorted by the other vertex): the force pass of the other
+// integrators sweeps it. The symplectic step has its own vertex-centric copy (each
+// spring at both ends, in groups of 16 vertices; see spring_kernel.h), so it sums
+// forces, integrates and does the monitor's bookkeeping in one pass with no scatter.
+// Memory order follows the mesh's vertex order.
 struct Cache {
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
   std::uint64_t layoutVersion = std::numeric_limits<std::uint64_t>::max();
@@ -156,10 +170,17 @@ struct Cache {
   std::vector<std::uint32_t> lower;  // CSR slot → its lower vertex (for the kernels)
   std::vector<double> rest, k;
   double maxVertexStiffness = 0.0;  // max over vertices of the sum of k of its springs
-  // Two threads: vertices [0, splitVertex) and [splitVertex, n); `cross` lists the
-  // springs from the first half to the second (the second thread adds their share).
-  std::size_t splitVertex = 0;
-  std::vector<std::uint32_t> cross;
+  // The symplectic step's vertex-centric layout (spring_kernel.h, BlockStep): groups
+  // of 16 vertices, two blocks of 8 lanes each (lanes sorted by degree: slotVertex,
+  // vertexSlot), each block with ranks of 8 lanes (offset 3·j of the far end, k, rest
+  // of every incident spring: each spring appears at both ends). halfSlot[2q],
+  // halfSlot[2q + 1]: where CSR slot q sits (8·rank + lane) at its lower and its upper
+  // end, so an edit can zero both. extraGroup: groups touched by added springs (their
+  // forces go through f4). Two threads: groups [0, splitGroup) and the rest.
+  std::vector<std::uint32_t> rankStart, rankX, halfSlot;
+  std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
+  std::vector<std::uint8_t> slotVertex, vertexSlot, extraGroup;
+  std::size_t splitGroup = 0;
   std::size_t maxOut = 0;  // most springs at one vertex
   bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
   WorkerSlot worker;
@@ -168,11 +189,11 @@ struct Cache {
   // Scratch (kept to avoid allocations per step).
   std::vector<Eigen::Vector3d> f, f2, xb, vb, k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, xt, vt;
   std::vector<Eigen::Vector3d> scatter;  // zero between sweeps (forces of finished vertices)
-  // The symplectic sweep's force accumulator and the force pass's, 4 doubles a vertex
-  // (x, y, z, unused: one 4-wide update per spring end); zero between sweeps.
+  // The added springs' forces for the symplectic step and the force pass's
+  // accumulator, 4 doubles a vertex (x, y, z, unused: one 4-wide update per spring
+  // end); zero between steps.
   std::vector<double> f4, scatter4;
-  std::vector<double> chunk[2];  // per-thread spring scratch
-  std::vector<double> lambda;    // xpbd multipliers (springs)
+  std::vector<double> lambda;  // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
   std::uint64_t localUpdates = 0;
 };

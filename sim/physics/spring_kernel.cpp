@@ -53,37 +53,71 @@ double springForcesScalar(const SpringChunk& c) {
   return pe;
 }
 
-void finishScalar(const FinishChunk& c, FinishSums& s) {
+// One vertex's integration and its share of the monitor's sums (f: its total spring force).
+struct ScalarSums {
   double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0, kv2 = 0;
-  for (std::size_t t = 0; t < c.nv; ++t) {
-    const double im = c.invMass[t], m = c.mass[t], kt = c.stiffness[t];
-    const bool live = im != 0.0;
-    double* f4 = c.f4 + 4 * t;
-    for (std::size_t a = 0; a < 3; ++a) {
-      const std::size_t b = 3 * t + a;
-      const double h = c.x0[b] - c.home[b];
-      const double acc = (f4[a] + c.ext[b]) - c.homeK * h;
-      const double u = live ? c.damp * c.v0[b] + c.dt * (im * acc + c.g[a]) : 0.0;
-      const double e = c.dt * u;
-      const double p = c.x0[b] + e;
-      c.v1[b] = u;
-      c.x1[b] = p;
-      const double uu = u * u;
-      ke1 += m * uu;
-      kv2 += kt * uu;
-      v2 += uu;
-      maxc = std::max(maxc, uu);
-      work += (c.ext[b] + m * c.g[a]) * e;
-      if (live) home1 += (p - c.home[b]) * (p - c.home[b]);
-    }
-    std::fill_n(f4, 4, 0.0);
+};
+inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, ScalarSums& s) {
+  const double im = c.invMass[t], m = c.mass[t], kt = c.stiffness[t];
+  const bool live = im != 0.0;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::size_t b = 3 * t + a;
+    const double h = c.x0[b] - c.home[b];
+    const double acc = (f[a] + c.ext[b]) - c.homeK * h;
+    const double u = live ? c.damp * c.v0[b] + c.dt * (im * acc + c.g[a]) : 0.0;
+    const double e = c.dt * u;
+    const double p = c.x0[b] + e;
+    c.v1[b] = u;
+    c.x1[b] = p;
+    const double uu = u * u;
+    s.ke1 += m * uu;
+    s.kv2 += kt * uu;
+    s.v2 += uu;
+    s.maxc = std::max(s.maxc, uu);
+    s.work += (c.ext[b] + m * c.g[a]) * e;
+    if (live) s.home1 += (p - c.home[b]) * (p - c.home[b]);
   }
-  s.ke1 += ke1;
-  s.home1 += home1;
-  s.v2 += v2;
-  s.work += work;
-  s.maxComp2 = std::max(s.maxComp2, maxc);
-  s.kv2 += kv2;
+}
+
+void blockStepScalar(const BlockStep& c, FinishSums& out) {
+  ScalarSums s;
+  double pe = 0.0;
+  for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    const std::size_t t = kGroup * grp;
+    for (std::size_t slot = 0; slot < kGroup; ++slot) {
+      const std::size_t i = t + c.slotVertex[t + slot];
+      if (i >= c.n) continue;
+      const std::size_t blk = 2 * grp + slot / kLanes, lane = slot % kLanes;
+      double f[3] = {0.0, 0.0, 0.0};
+      if (c.extra[grp]) {
+        double* fa = c.f4 + 4 * i;
+        std::copy(fa, fa + 3, f);
+        std::fill_n(fa, 4, 0.0);
+      }
+      const double* xi = c.x0 + 3 * i;
+      for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
+        const std::size_t q = kLanes * r + lane;
+        const double* xj = c.x0 + c.rankX[q];
+        const double dx = xj[0] - xi[0], dy = xj[1] - xi[1], dz = xj[2] - xi[2];
+        const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
+        const double st = len - c.rankRest[q];
+        const double kst = c.rankK[q] * st;
+        pe += kst * st;
+        const double w = len > 0.0 ? kst / len : 0.0;
+        f[0] += w * dx;
+        f[1] += w * dy;
+        f[2] += w * dz;
+      }
+      integrateScalar(c, i, f, s);
+    }
+  }
+  out.ke1 += s.ke1;
+  out.home1 += s.home1;
+  out.v2 += s.v2;
+  out.work += s.work;
+  out.maxComp2 = std::max(out.maxComp2, s.maxc);
+  out.kv2 += s.kv2;
+  out.pe += pe;
 }
 
 // ---- AVX2 + FMA: 4 lanes ------------------------------------------------------
@@ -97,6 +131,27 @@ LD_AVX2 inline double hsum(__m256d v) {
 LD_AVX2 inline double hmax(__m256d v) {
   const __m128d s = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
   return _mm_cvtsd_f64(_mm_max_sd(s, _mm_unpackhi_pd(s, s)));
+}
+
+// Four (x, y, z, ·) vectors transposed to x, y and z registers (loads and shuffles
+// rather than gathers, which are slow on many CPUs).
+LD_AVX2 inline void transpose4(const __m256d* d, __m256d* xyz) {
+  const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
+  const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
+  xyz[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  xyz[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  xyz[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+}
+
+// k(l − rest)/l of four springs with difference vectors d (x, y, z registers), 0 where
+// l = 0; adds k(l − rest)² to pe.
+LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k, __m256d& pe) {
+  const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
+  const __m256d l = _mm256_sqrt_pd(l2);
+  const __m256d st = _mm256_sub_pd(l, rest);
+  const __m256d kst = _mm256_mul_pd(k, st);
+  pe = _mm256_fmadd_pd(kst, st, pe);
+  return _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ));
 }
 
 // One spring's force (x, y, z, 0) into its lower vertex's sum and out of its far end.
@@ -120,25 +175,15 @@ LD_AVX2 double springForcesAvx2(const SpringChunk& c) {
     // Lanes past m repeat the last spring; rest and k load as 0 there, nothing stored.
     const std::size_t cnt = std::min<std::size_t>(4, c.m - t);
     const __m256i mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(cnt)), lanes);
-    // Difference vectors (x, y, z, 0) of 4 springs, transposed (loads and shuffles
-    // rather than gathers, which are slow on many CPUs).
-    __m256d d[4];
+    // Difference vectors (x, y, z, 0) of 4 springs.
+    __m256d d[4], dxyz[3];
     for (std::size_t u = 0; u < 4; ++u) {
       const std::size_t a = t + std::min(u, cnt - 1);
       d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x + 3 * std::size_t{c.oth[a]}, xyz),
                            _mm256_maskload_pd(c.x + 3 * std::size_t{c.lo[a]}, xyz));
     }
-    const __m256d t0 = _mm256_unpacklo_pd(d[0], d[1]), t1 = _mm256_unpackhi_pd(d[0], d[1]);
-    const __m256d t2 = _mm256_unpacklo_pd(d[2], d[3]), t3 = _mm256_unpackhi_pd(d[2], d[3]);
-    const __m256d dx = _mm256_permute2f128_pd(t0, t2, 0x20);
-    const __m256d dy = _mm256_permute2f128_pd(t1, t3, 0x20);
-    const __m256d dz = _mm256_permute2f128_pd(t0, t2, 0x31);
-    const __m256d l2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_mul_pd(dx, dx)));
-    const __m256d l = _mm256_sqrt_pd(l2);
-    const __m256d st = _mm256_sub_pd(l, _mm256_maskload_pd(c.rest + t, mask));
-    const __m256d kst = _mm256_mul_pd(_mm256_maskload_pd(c.k + t, mask), st);
-    pe = _mm256_fmadd_pd(kst, st, pe);
-    const __m256d q = _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, zero, _CMP_GT_OQ));
+    transpose4(d, dxyz);
+    const __m256d q = springWeights4(dxyz, _mm256_maskload_pd(c.rest + t, mask), _mm256_maskload_pd(c.k + t, mask), pe);
     alignas(32) double qs[4];
     _mm256_store_pd(qs, q);
     for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
@@ -151,17 +196,12 @@ struct Acc2 {
 };
 
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
-// force from f4 (4 a vertex, zeroed here), regrouped to 3 a vertex.
-LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, const double* x0, const double* v0, const double* home,
-                            const double* ext, const double* im, const double* mass, const double* stiff, double* x1,
-                            double* v1, const __m256d* grav, Acc2& acc) {
+// forces fa (x, y, z, 0 a vertex) regrouped to 3 a vertex.
+LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double* x0, const double* v0,
+                            const double* home, const double* ext, const double* im, const double* mass,
+                            const double* stiff, double* x1, double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
-  __m256d fa[4];
-  for (int u = 0; u < 4; ++u) {
-    fa[u] = _mm256_loadu_pd(f4 + 4 * u);
-    _mm256_storeu_pd(f4 + 4 * u, zero);
-  }
   const __m256d F[3] = {_mm256_blend_pd(fa[0], _mm256_permute4x64_pd(fa[1], 0x00), 0x8),
                         _mm256_blend_pd(_mm256_permute4x64_pd(fa[1], 0x09), _mm256_permute4x64_pd(fa[2], 0x40), 0xC),
                         _mm256_blend_pd(_mm256_permute4x64_pd(fa[3], 0x90), _mm256_permute4x64_pd(fa[2], 0x02), 0x1)};
@@ -195,32 +235,81 @@ LD_AVX2 inline void finish4(const FinishChunk& c, double* f4, const double* x0, 
   }
 }
 
-LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
+// Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
+// springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
+LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
+                             __m256d& pe) {
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+  __m256d xi[4];
+  for (std::size_t u = 0; u < 4; ++u) xi[u] = _mm256_maskload_pd(xiAt[u], xyz);
+  __m256d fx = zero, fy = zero, fz = zero;
+  for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
+    const std::size_t q0 = kLanes * r + h;
+    const std::uint32_t* J = c.rankX + q0;
+    __m256d d[4], dxyz[3];
+    for (std::size_t u = 0; u < 4; ++u) d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x0 + J[u], xyz), xi[u]);
+    transpose4(d, dxyz);
+    const __m256d w = springWeights4(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+    fx = _mm256_fmadd_pd(w, dxyz[0], fx);
+    fy = _mm256_fmadd_pd(w, dxyz[1], fy);
+    fz = _mm256_fmadd_pd(w, dxyz[2], fz);
+  }
+  const __m256d t0 = _mm256_unpacklo_pd(fx, fy), t1 = _mm256_unpackhi_pd(fx, fy);
+  const __m256d t2 = _mm256_unpacklo_pd(fz, zero), t3 = _mm256_unpackhi_pd(fz, zero);
+  fa[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  fa[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  fa[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  fa[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
   const __m256d zero = _mm256_setzero_pd();
   Acc2 acc{zero, zero, zero, zero, zero, zero};
+  __m256d pe = zero;
   const __m256d grav[3] = {_mm256_setr_pd(c.g[0], c.g[1], c.g[2], c.g[0]),
                            _mm256_setr_pd(c.g[1], c.g[2], c.g[0], c.g[1]),
                            _mm256_setr_pd(c.g[2], c.g[0], c.g[1], c.g[2])};
-  std::size_t t = 0;
-  for (; t + 4 <= c.nv; t += 4) {
-    const std::size_t b = 3 * t;
-    finish4(c, c.f4 + 4 * t, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t, c.mass + t, c.stiffness + t,
-            c.x1 + b, c.v1 + b, grav, acc);
-  }
-  if (t < c.nv) {
-    // The last 1–3 vertices through the same lanes, padded with massless zeros.
-    const std::size_t rem = c.nv - t, b = 3 * t;
-    double buf[6][12] = {}, f4[16] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
-    const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
-    for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem, buf[a]);
-    std::copy(c.f4 + 4 * t, c.f4 + 4 * (t + rem), f4);
-    std::fill(c.f4 + 4 * t, c.f4 + 4 * (t + rem), 0.0);
-    std::copy(c.invMass + t, c.invMass + t + rem, im);
-    std::copy(c.mass + t, c.mass + t + rem, mass);
-    std::copy(c.stiffness + t, c.stiffness + t + rem, stiff);
-    finish4(c, f4, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
-    std::copy(buf[4], buf[4] + 3 * rem, c.x1 + b);
-    std::copy(buf[5], buf[5] + 3 * rem, c.v1 + b);
+  for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    const std::size_t t = kGroup * grp, rem = std::min(kGroup, c.n - t);
+    // Forces a vertex of the group (lanes put back in vertex order).
+    __m256d fv[kGroup];
+    for (std::size_t q = 0; q < kGroup; q += 4) {
+      const double* xiAt[4];
+      std::size_t v[4];
+      for (std::size_t u = 0; u < 4; ++u) {
+        v[u] = c.slotVertex[t + q + u];
+        xiAt[u] = c.x0 + 3 * (v[u] < rem ? t + v[u] : t);  // lanes past n: the group's first vertex
+      }
+      __m256d fa[4];
+      springs4(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
+      for (std::size_t u = 0; u < 4; ++u) fv[v[u]] = fa[u];
+    }
+    if (c.extra[grp])
+      for (std::size_t u = 0; u < rem; ++u) {
+        double* f4 = c.f4 + 4 * (t + u);
+        fv[u] = _mm256_add_pd(fv[u], _mm256_loadu_pd(f4));
+        _mm256_storeu_pd(f4, zero);
+      }
+    for (std::size_t q = 0; q < rem; q += 4) {
+      const std::size_t t4 = t + q, rem4 = std::min<std::size_t>(4, rem - q), b = 3 * t4;
+      if (rem4 == 4) {
+        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t4, c.mass + t4, c.stiffness + t4,
+                c.x1 + b, c.v1 + b, grav, acc);
+        continue;
+      }
+      // The last 1–3 vertices through the same lanes, padded with massless zeros.
+      double buf[6][12] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
+      const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
+      for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem4, buf[a]);
+      for (std::size_t u = rem4; u < 4; ++u) fv[q + u] = zero;
+      std::copy(c.invMass + t4, c.invMass + t4 + rem4, im);
+      std::copy(c.mass + t4, c.mass + t4 + rem4, mass);
+      std::copy(c.stiffness + t4, c.stiffness + t4 + rem4, stiff);
+      finish4(c, fv + q, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
+      std::copy(buf[4], buf[4] + 3 * rem4, c.x1 + b);
+      std::copy(buf[5], buf[5] + 3 * rem4, c.v1 + b);
+    }
   }
   s.ke1 += hsum(acc.ke);
   s.home1 += hsum(acc.home);
@@ -228,46 +317,55 @@ LD_AVX2 void finishAvx2(const FinishChunk& c, FinishSums& s) {
   s.work += hsum(acc.work);
   s.maxComp2 = std::max(s.maxComp2, hmax(acc.maxc));
   s.kv2 += hsum(acc.kv2);
+  s.pe += hsum(pe);
 }
 
 // ---- AVX-512: 8 lanes, masked tails ----------------------------------------------
 
+// Eight (x, y, z, ·) vectors transposed to x, y and z registers: 11 shuffles (with
+// 16 three-lane loads, that beats 3 gathers, ~12 cycles each here).
+LD_AVX512 inline void transpose8(const __m256d* d, __m512d* xyz) {
+  const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
+  __m512d p[4];
+  for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
+  const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
+  const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
+  xyz[0] = _mm512_shuffle_f64x2(xyLo, xyHi, 0x44);
+  xyz[1] = _mm512_shuffle_f64x2(xyLo, xyHi, 0xEE);
+  xyz[2] = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
+}
+
+// k(l − rest)/l of eight springs with difference vectors d (x, y, z registers), 0
+// where l = 0; adds k(l − rest)² to pe. sqrt and div: fast on this CPU's 512-bit units
+// (rsqrt14 and two Newton steps measured slower) and rounded as the scalar path is.
+LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d k, __m512d& pe) {
+  const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
+  const __mmask8 pos = _mm512_cmp_pd_mask(l2, _mm512_setzero_pd(), _CMP_GT_OQ);
+  const __m512d l = _mm512_sqrt_pd(l2);
+  const __m512d st = _mm512_sub_pd(l, rest);
+  const __m512d kst = _mm512_mul_pd(k, st);
+  pe = _mm512_fmadd_pd(kst, st, pe);
+  return _mm512_maskz_div_pd(pos, kst, l);
+}
+
 LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
-  const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5), threeHalves = _mm512_set1_pd(1.5);
+  const __m512d zero = _mm512_setzero_pd();
   __m512d pe = zero;
   for (std::size_t t = 0; t < c.m; t += 8) {
     const std::size_t cnt = std::min<std::size_t>(8, c.m - t);
     const __mmask8 mk = __mmask8((1u << cnt) - 1u);
-    // Difference vectors (x, y, z, 0) of the 8 springs, transposed to x, y and z
-    // registers: 16 three-lane loads and 11 shuffles beat 6 gathers (slow on many
-    // CPUs, ~12 cycles each here).
-    // Lanes past m repeat the last spring (rest and k load as 0 there; not applied).
+    // Difference vectors (x, y, z, 0) of the 8 springs; lanes past m repeat the last
+    // spring (rest and k load as 0 there; not applied).
     __m256d d[8];
     for (std::size_t u = 0; u < 8; ++u) {
       const std::size_t a = t + std::min(u, cnt - 1);
       d[u] = _mm256_sub_pd(_mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.oth[a]}),
                            _mm256_maskz_loadu_pd(0x7, c.x + 3 * std::size_t{c.lo[a]}));
     }
-    __m512d p[4];
-    for (int u = 0; u < 4; ++u) p[u] = _mm512_insertf64x4(_mm512_castpd256_pd512(d[2 * u]), d[2 * u + 1], 1);
-    const __m512i xy = _mm512_setr_epi64(0, 4, 8, 12, 1, 5, 9, 13), zz = _mm512_setr_epi64(2, 6, 10, 14, 2, 6, 10, 14);
-    const __m512d xyLo = _mm512_permutex2var_pd(p[0], xy, p[1]), xyHi = _mm512_permutex2var_pd(p[2], xy, p[3]);
-    const __m512d zLo = _mm512_permutex2var_pd(p[0], zz, p[1]), zHi = _mm512_permutex2var_pd(p[2], zz, p[3]);
-    const __m512d dx = _mm512_shuffle_f64x2(xyLo, xyHi, 0x44);
-    const __m512d dy = _mm512_shuffle_f64x2(xyLo, xyHi, 0xEE);
-    const __m512d dz = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
-    const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    const __mmask8 pos = _mm512_cmp_pd_mask(l2, zero, _CMP_GT_OQ);
-    // 1/l: 14-bit estimate, two Newton steps (error ~2⁻²⁸, then below rounding).
-    __m512d r = _mm512_rsqrt14_pd(l2);
-    const __m512d hl = _mm512_mul_pd(half, l2);
-    r = _mm512_mul_pd(r, _mm512_fnmadd_pd(_mm512_mul_pd(hl, r), r, threeHalves));
-    r = _mm512_mul_pd(r, _mm512_fnmadd_pd(_mm512_mul_pd(hl, r), r, threeHalves));
-    const __m512d l = _mm512_maskz_mul_pd(pos, l2, r);
-    const __m512d st = _mm512_sub_pd(l, _mm512_maskz_loadu_pd(mk, c.rest + t));
-    const __m512d kst = _mm512_mul_pd(_mm512_maskz_loadu_pd(mk, c.k + t), st);
-    pe = _mm512_fmadd_pd(kst, st, pe);
-    const __m512d q = _mm512_maskz_mul_pd(pos, kst, r);
+    __m512d dxyz[3];
+    transpose8(d, dxyz);
+    const __m512d q =
+        springWeights8(dxyz, _mm512_maskz_loadu_pd(mk, c.rest + t), _mm512_maskz_loadu_pd(mk, c.k + t), pe);
     alignas(64) double qs[8];
     _mm512_store_pd(qs, q);
     for (std::size_t u = 0; u < cnt; ++u) applySpring(c, t + u, _mm256_mul_pd(_mm256_set1_pd(qs[u]), d[u]));
@@ -275,68 +373,181 @@ LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
   return _mm512_reduce_add_pd(pe);
 }
 
-LD_AVX512 void finishAvx512(const FinishChunk& c, FinishSums& s) {
-  const __m512d zero = _mm512_setzero_pd();
-  const __m512d dt = _mm512_set1_pd(c.dt), damp = _mm512_set1_pd(c.damp), homeK = _mm512_set1_pd(c.homeK);
-  const double g0 = c.g[0], g1 = c.g[1], g2 = c.g[2];
-  const __m512d grav[3] = {_mm512_setr_pd(g0, g1, g2, g0, g1, g2, g0, g1),
-                           _mm512_setr_pd(g2, g0, g1, g2, g0, g1, g2, g0),
-                           _mm512_setr_pd(g1, g2, g0, g1, g2, g0, g1, g2)};
-  // Register r of 8 vertices holds components 8r … 8r+7: vertex (8r + lane) / 3.
-  const __m512i spread[3] = {_mm512_setr_epi64(0, 0, 0, 1, 1, 1, 2, 2), _mm512_setr_epi64(2, 3, 3, 3, 4, 4, 4, 5),
-                             _mm512_setr_epi64(5, 5, 6, 6, 6, 7, 7, 7)};
-  const __m512i regroup[3] = {_mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9), _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12),
-                              _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14)};
-  __m512d ke = zero, home = zero, v2 = zero, work = zero, maxc = zero, kv2 = zero;
-  for (std::size_t t = 0; t < c.nv; t += 8) {
-    const std::size_t rem = std::min<std::size_t>(8, c.nv - t), comps = 3 * rem, b = 3 * t;
-    const __mmask8 vm = __mmask8((1u << rem) - 1u);
-    const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
-    const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
-    // Forces of the 8 vertices (f4, 4 a vertex, zeroed here) regrouped to 3 a vertex.
+// Index tables between the flat layout of 8 vertices (3 registers: x0 y0 z0 x1 …)
+// and one register an axis (lane = vertex): two-source permutes of the first two
+// registers, then a masked permute from the third.
+struct Regroup {
+  alignas(64) long long toAxis[3][8], toAxisLast[3][8], toFlat[3][8], toFlatZ[3][8];
+  __mmask8 axisLast[3], flatZ[3];
+};
+constexpr Regroup makeRegroup() {
+  Regroup g{};
+  for (int a = 0; a < 3; ++a)
+    for (int v = 0; v < 8; ++v) {
+      const int comp = 3 * v + a, reg = comp / 8, pos = comp % 8;
+      g.toAxis[a][v] = reg < 2 ? pos + 8 * reg : 0;
+      g.toAxisLast[a][v] = pos;
+      if (reg == 2) g.axisLast[a] = __mmask8(g.axisLast[a] | (1u << v));
+    }
+  for (int r = 0; r < 3; ++r)
+    for (int p = 0; p < 8; ++p) {
+      const int comp = 8 * r + p, v = comp / 3, a = comp % 3;
+      g.toFlat[r][p] = a < 2 ? v + 8 * a : 0;
+      g.toFlatZ[r][p] = v;
+      if (a == 2) g.flatZ[r] = __mmask8(g.flatZ[r] | (1u << p));
+    }
+  return g;
+}
+constexpr Regroup kRegroup = makeRegroup();
+
+LD_AVX512 inline __m512i idx512(const long long* p) { return _mm512_load_si512(static_cast<const void*>(p)); }
+
+struct Acc512 {
+  __m512d ke, home, v2, work, maxc, kv2;
+};
+
+struct Consts512 {
+  __m512d zero, dt, damp, homeK, grav[3];
+  __m512i spread[3], regroup[3], toAxis[3], toAxisLast[3], toFlat[3], toFlatZ[3];
+};
+
+// One block's springs (lanes at positions xi, one register an axis), rank by rank:
+// far ends (x, y, z) by three-lane loads, transposed to axis registers (16 loads and
+// shuffles beat gathers here), summed per lane in registers.
+LD_AVX512 inline void springs8(const BlockStep& c, const Consts512& k, std::size_t blk, const __m512d* xi, __m512d* f,
+                               __m512d& pe) {
+  for (int a = 0; a < 3; ++a) f[a] = k.zero;
+  for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
+    const std::size_t q0 = kLanes * r;
+    const std::uint32_t* J = c.rankX + q0;
+    __m256d d[8];
+    for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, c.x0 + J[u]);
+    __m512d dxyz[3];
+    transpose8(d, dxyz);
+    for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
+    const __m512d w = springWeights8(dxyz, _mm512_load_pd(c.rankRest + q0), _mm512_load_pd(c.rankK + q0), pe);
+    for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
+  }
+}
+
+// Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
+// with the masks mk; f: their spring forces, one register an axis).
+LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_t t, std::size_t rem, bool extra,
+                              const __m512d* X, const __mmask8* mk, const __m512d* f, Acc512& acc) {
+  const std::size_t b = 3 * t;
+  __m512d F[3];
+  for (int r = 0; r < 3; ++r)
+    F[r] = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(f[0], k.toFlat[r], f[1]), kRegroup.flatZ[r], k.toFlatZ[r],
+                                      f[2]);
+  if (extra) {
+    // Forces of the springs added since the rebuild (f4, 4 a vertex; zeroed here).
     __m512d fa[4];
     for (std::size_t u = 0; u < 4; ++u) {
       const __mmask8 two = __mmask8((rem > 2 * u ? 0x0Fu : 0u) | (rem > 2 * u + 1 ? 0xF0u : 0u));
       double* f4 = c.f4 + 4 * t + 8 * u;
       fa[u] = _mm512_maskz_loadu_pd(two, f4);
-      _mm512_mask_storeu_pd(f4, two, zero);
+      _mm512_mask_storeu_pd(f4, two, k.zero);
     }
-    const __m512d F[3] = {_mm512_permutex2var_pd(fa[0], regroup[0], fa[1]),
-                          _mm512_permutex2var_pd(fa[1], regroup[1], fa[2]),
-                          _mm512_permutex2var_pd(fa[2], regroup[2], fa[3])};
-    for (std::size_t r = 0; r < 3; ++r) {
+    for (int r = 0; r < 3; ++r) F[r] = _mm512_add_pd(F[r], _mm512_permutex2var_pd(fa[r], k.regroup[r], fa[r + 1]));
+  }
+  const __mmask8 vm = __mmask8((1u << rem) - 1u);
+  const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+  const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
+  for (std::size_t r = 0; r < 3; ++r) {
+    const std::size_t o = b + 8 * r;
+    const __m512d im3 = _mm512_permutexvar_pd(k.spread[r], imv), m3 = _mm512_permutexvar_pd(k.spread[r], mv);
+    const __m512d k3 = _mm512_permutexvar_pd(k.spread[r], kv);
+    const __mmask8 live = _mm512_cmp_pd_mask(im3, k.zero, _CMP_NEQ_OQ);
+    const __m512d H = _mm512_maskz_loadu_pd(mk[r], c.home + o);
+    const __m512d E = _mm512_maskz_loadu_pd(mk[r], c.ext + o);
+    const __m512d a = _mm512_fnmadd_pd(k.homeK, _mm512_sub_pd(X[r], H), _mm512_add_pd(F[r], E));
+    const __m512d u = _mm512_maskz_fmadd_pd(live, k.damp, _mm512_maskz_loadu_pd(mk[r], c.v0 + o),
+                                            _mm512_mul_pd(k.dt, _mm512_fmadd_pd(im3, a, k.grav[r])));
+    const __m512d e = _mm512_mul_pd(k.dt, u);
+    const __m512d p = _mm512_add_pd(X[r], e);
+    _mm512_mask_storeu_pd(c.v1 + o, mk[r], u);
+    _mm512_mask_storeu_pd(c.x1 + o, mk[r], p);
+    const __m512d uu = _mm512_mul_pd(u, u);
+    acc.ke = _mm512_fmadd_pd(m3, uu, acc.ke);
+    acc.kv2 = _mm512_fmadd_pd(k3, uu, acc.kv2);
+    acc.v2 = _mm512_add_pd(acc.v2, uu);
+    acc.maxc = _mm512_max_pd(acc.maxc, uu);
+    acc.work = _mm512_fmadd_pd(_mm512_fmadd_pd(m3, k.grav[r], E), e, acc.work);
+    const __m512d qh = _mm512_maskz_sub_pd(live, p, H);
+    acc.home = _mm512_fmadd_pd(qh, qh, acc.home);
+  }
+}
+
+LD_AVX512 inline __m512i lanes8(const std::uint8_t* p) {
+  return _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
+}
+
+LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
+  Consts512 k;
+  k.zero = _mm512_setzero_pd();
+  k.dt = _mm512_set1_pd(c.dt);
+  k.damp = _mm512_set1_pd(c.damp);
+  k.homeK = _mm512_set1_pd(c.homeK);
+  const double g0 = c.g[0], g1 = c.g[1], g2 = c.g[2];
+  k.grav[0] = _mm512_setr_pd(g0, g1, g2, g0, g1, g2, g0, g1);
+  k.grav[1] = _mm512_setr_pd(g2, g0, g1, g2, g0, g1, g2, g0);
+  k.grav[2] = _mm512_setr_pd(g1, g2, g0, g1, g2, g0, g1, g2);
+  // Register r of 8 vertices holds components 8r … 8r+7: vertex (8r + lane) / 3.
+  k.spread[0] = _mm512_setr_epi64(0, 0, 0, 1, 1, 1, 2, 2);
+  k.spread[1] = _mm512_setr_epi64(2, 3, 3, 3, 4, 4, 4, 5);
+  k.spread[2] = _mm512_setr_epi64(5, 5, 6, 6, 6, 7, 7, 7);
+  k.regroup[0] = _mm512_setr_epi64(0, 1, 2, 4, 5, 6, 8, 9);
+  k.regroup[1] = _mm512_setr_epi64(2, 4, 5, 6, 8, 9, 10, 12);
+  k.regroup[2] = _mm512_setr_epi64(5, 6, 8, 9, 10, 12, 13, 14);
+  for (int a = 0; a < 3; ++a) {
+    k.toAxis[a] = idx512(kRegroup.toAxis[a]);
+    k.toAxisLast[a] = idx512(kRegroup.toAxisLast[a]);
+    k.toFlat[a] = idx512(kRegroup.toFlat[a]);
+    k.toFlatZ[a] = idx512(kRegroup.toFlatZ[a]);
+  }
+  Acc512 acc{k.zero, k.zero, k.zero, k.zero, k.zero, k.zero};
+  __m512d pe = k.zero;
+  for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    const std::size_t t = kGroup * grp;
+    const std::size_t rem = std::min(kGroup, c.n - t), comps = 3 * rem;
+    // Positions of the 16 vertices, flat (6 registers), then one register an axis
+    // a half; lanes past n load as 0 (their springs are padding).
+    __mmask8 mk[6];
+    __m512d X[6];
+    for (std::size_t r = 0; r < 6; ++r) {
       const std::size_t lo = 8 * r;
       const std::size_t cnt = comps > lo ? std::min<std::size_t>(8, comps - lo) : 0;
-      const __mmask8 mk = __mmask8((1u << cnt) - 1u);
-      const std::size_t o = b + lo;
-      const __m512d im3 = _mm512_permutexvar_pd(spread[r], imv), m3 = _mm512_permutexvar_pd(spread[r], mv);
-      const __m512d k3 = _mm512_permutexvar_pd(spread[r], kv);
-      const __mmask8 live = _mm512_cmp_pd_mask(im3, zero, _CMP_NEQ_OQ);
-      const __m512d X = _mm512_maskz_loadu_pd(mk, c.x0 + o), H = _mm512_maskz_loadu_pd(mk, c.home + o);
-      const __m512d E = _mm512_maskz_loadu_pd(mk, c.ext + o);
-      const __m512d a = _mm512_fnmadd_pd(homeK, _mm512_sub_pd(X, H), _mm512_add_pd(F[r], E));
-      const __m512d u = _mm512_maskz_fmadd_pd(live, damp, _mm512_maskz_loadu_pd(mk, c.v0 + o),
-                                              _mm512_mul_pd(dt, _mm512_fmadd_pd(im3, a, grav[r])));
-      const __m512d e = _mm512_mul_pd(dt, u);
-      const __m512d p = _mm512_add_pd(X, e);
-      _mm512_mask_storeu_pd(c.v1 + o, mk, u);
-      _mm512_mask_storeu_pd(c.x1 + o, mk, p);
-      const __m512d uu = _mm512_mul_pd(u, u);
-      ke = _mm512_fmadd_pd(m3, uu, ke);
-      kv2 = _mm512_fmadd_pd(k3, uu, kv2);
-      v2 = _mm512_add_pd(v2, uu);
-      maxc = _mm512_max_pd(maxc, uu);
-      work = _mm512_fmadd_pd(_mm512_fmadd_pd(m3, grav[r], E), e, work);
-      const __m512d qh = _mm512_maskz_sub_pd(live, p, H);
-      home = _mm512_fmadd_pd(qh, qh, home);
+      mk[r] = __mmask8((1u << cnt) - 1u);
+      X[r] = _mm512_maskz_loadu_pd(mk[r], c.x0 + 3 * t + lo);
+    }
+    __m512d axis[2][3];
+    for (int h = 0; h < 2; ++h)
+      for (int a = 0; a < 3; ++a)
+        axis[h][a] = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(X[3 * h], k.toAxis[a], X[3 * h + 1]),
+                                                kRegroup.axisLast[a], k.toAxisLast[a], X[3 * h + 2]);
+    // Each block's lanes are the group's vertices in slot order.
+    __m512d f[2][3];
+    for (std::size_t h = 0; h < 2; ++h) {
+      const __m512i sv = lanes8(c.slotVertex + t + kLanes * h);
+      __m512d xi[3];
+      for (int a = 0; a < 3; ++a) xi[a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
+      springs8(c, k, 2 * grp + h, xi, f[h], pe);
+    }
+    const bool extra = c.extra[grp] != 0;
+    for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
+      const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);
+      __m512d fv[3];
+      for (int a = 0; a < 3; ++a) fv[a] = _mm512_permutex2var_pd(f[0][a], vs, f[1][a]);
+      finish8(c, k, t + kLanes * h, std::min(kLanes, rem - kLanes * h), extra, X + 3 * h, mk + 3 * h, fv, acc);
     }
   }
-  s.ke1 += _mm512_reduce_add_pd(ke);
-  s.home1 += _mm512_reduce_add_pd(home);
-  s.v2 += _mm512_reduce_add_pd(v2);
-  s.work += _mm512_reduce_add_pd(work);
-  s.maxComp2 = std::max(s.maxComp2, _mm512_reduce_max_pd(maxc));
-  s.kv2 += _mm512_reduce_add_pd(kv2);
+  s.ke1 += _mm512_reduce_add_pd(acc.ke);
+  s.home1 += _mm512_reduce_add_pd(acc.home);
+  s.v2 += _mm512_reduce_add_pd(acc.v2);
+  s.work += _mm512_reduce_add_pd(acc.work);
+  s.maxComp2 = std::max(s.maxComp2, _mm512_reduce_max_pd(acc.maxc));
+  s.kv2 += _mm512_reduce_add_pd(acc.kv2);
+  s.pe += _mm512_reduce_add_pd(pe);
 }
 
 #endif  // LD_X86_KERNELS
@@ -410,18 +621,18 @@ double springForces(Kernel kern, const SpringChunk& c) {
   }
 }
 
-void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s) {
+void blockStep(Kernel kern, const BlockStep& c, FinishSums& s) {
   switch (kern) {
 #ifdef LD_X86_KERNELS
     case Kernel::Avx512:
-      finishAvx512(c, s);
+      blockStepAvx512(c, s);
       return;
     case Kernel::Avx2:
-      finishAvx2(c, s);
+      blockStepAvx2(c, s);
       return;
 #endif
     default:
-      finishScalar(c, s);
+      blockStepScalar(c, s);
   }
 }
 

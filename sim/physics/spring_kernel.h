@@ -1,12 +1,13 @@
 #pragma once
-// The symplectic step's inner loops (internal to sim/physics), in three builds chosen
-// at run time: portable scalar code, AVX2+FMA (4 springs or vertices a lane group)
-// and AVX-512 (8). All are double precision. Every lane computes the same operations
-// whatever the group it falls in (tails are masked or padded, never done by a
-// different scalar loop), so a spring's or a vertex's result does not depend on where
-// a chunk starts: the two-thread step stays bit-identical to one thread on each path.
-// Paths differ from each other in the last bits (fused multiply-add; the AVX-512 path
-// takes 1/l from rsqrt14 and two Newton steps, within about two ulp).
+// The spring loops (internal to sim/physics) in three builds chosen at run time:
+// portable scalar code, AVX2+FMA (4 lanes) and AVX-512 (8). All are double precision:
+// the symplectic step (blockStep: vertex-centric, each vertex sums its own springs) and
+// the force pass of the other integrators (springForces: each spring once, scattered to
+// both ends). Every lane computes the same operations whatever the group it falls in
+// (tails are masked or padded, never done by a different scalar loop), so a vertex's
+// result does not depend on where a thread's range starts: the two-thread step stays
+// bit-identical to one thread on each path.
+// Paths differ from each other in the last bits (fused multiply-add).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -44,27 +45,47 @@ struct SpringChunk {
 // Returns Σ k (l − rest)² over the chunk (twice the energy).
 double springForces(Kernel kern, const SpringChunk& c);
 
-// Integration of nv consecutive vertices (pointers already at the chunk's first
-// vertex; positions and velocities 3 doubles a vertex): the force is f4 (4 a vertex;
-// zeroed here for the next step);
+// The symplectic step, vertex-centric. Vertices come in groups of kGroup = 16
+// consecutive ones, split into two blocks of kLanes = 8 lanes, one vertex a lane;
+// lanes are sorted by degree within the group (slotVertex: the vertex, as an offset in
+// the group, of each lane slot; vertexSlot: the inverse), so that a block of
+// high-degree vertices and one of low-degree vertices pad less than consecutive ones
+// would. Block b (2 a group) holds ranks [rankStart[b], rankStart[b+1]); rank r has,
+// for every lane, the far end (rankX = 3·j, the offset of x_j), k and rest of that
+// lane's vertex's r-th neighbour (by index: the order the lower-vertex scatter summed
+// in), padded with k = rest = 0 and the group's first vertex. Each vertex sums its own
+// springs (each spring is evaluated at both ends: no scatter, no shared writes; any
+// split into group ranges gives the same bits), adds f4 (4 doubles a vertex, set by the
+// springs added since the last rebuild) on groups flagged in `extra` (and zeroes it),
+// and integrates:
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
-// x1 = x0 + dt·v1, live = (im ≠ 0).
-struct FinishChunk {
-  double* f4 = nullptr;
+// x1 = x0 + dt·v1, live = (im ≠ 0). All arrays are whole (indexed by vertex);
+// positions and velocities 3 doubles a vertex.
+inline constexpr std::size_t kLanes = 8;
+inline constexpr std::size_t kGroup = 16;
+struct BlockStep {
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double *invMass = nullptr, *mass = nullptr;  // one per vertex
   const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
-  std::size_t nv = 0;
+  const std::uint32_t* rankStart = nullptr;  // per block
+  const std::uint32_t* rankX = nullptr;      // kLanes per rank
+  const double *rankK = nullptr, *rankRest = nullptr;
+  const std::uint8_t *slotVertex = nullptr, *vertexSlot = nullptr;  // kGroup per group
+  double* f4 = nullptr;
+  const std::uint8_t* extra = nullptr;  // per group: f4 holds forces for it
+  std::size_t n = 0;                    // vertices
+  std::size_t g0 = 0, g1 = 0;           // groups to step
   double dt = 0, damp = 1, homeK = 0;
   double g[3] = {0, 0, 0};
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
 // Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it
-// bounds the largest |v1|²), and Σ stiffness·|v1|² (bounds the spring energy change).
+// bounds the largest |v1|²), Σ stiffness·|v1|² (bounds the spring energy change), and
+// Σ k (l − rest)² over the ranks at x0 (four times the spring energy).
 struct FinishSums {
-  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0;
+  double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0, pe = 0;
 };
-void finishSymplectic(Kernel kern, const FinishChunk& c, FinishSums& s);
+void blockStep(Kernel kern, const BlockStep& c, FinishSums& s);
 
 }  // namespace ld::physics::detail
