@@ -40,6 +40,11 @@ int cut(const Args& args) {
   if (physicsMode != "on" && physicsMode != "off")
     throw CliError(kBadInput, "option --physics: expected 'on' or 'off', found '" + physicsMode + "'");
   const bool physicsOn = physicsMode == "on";
+  // Extension: --active-region on integrates only the awake vertices (physics' active
+  // region) and refits the collision tree only around them.
+  const std::string regionMode = args.get("active-region", "off");
+  if (regionMode != "on" && regionMode != "off")
+    throw CliError(kBadInput, "option --active-region: expected 'on' or 'off', found '" + regionMode + "'");
 
   mesh::SurfaceMesh m = io::readMesh(meshFile);
   const devices::Trajectory tr = devices::readTrajectoryCsv(csv);
@@ -61,6 +66,7 @@ int cut(const Args& args) {
   // engine to refit its collision tree before the next sample).
   physics::Params pp;
   pp.tissue = tissue;
+  pp.active.enabled = regionMode == "on";
   std::vector<std::unique_ptr<physics::Dynamics>> dynamics;  // stable addresses
   std::vector<int> dynamicsOf;
   double physicsSeconds = 0.0;
@@ -77,12 +83,17 @@ int cut(const Args& args) {
         dynamicsOf.push_back(id);
       }
       const int substeps = std::max(1, static_cast<int>(std::ceil(dt / kPhysicsDt - 1e-9)));
-      mesh::SurfaceMesh& mesh = engine.object(id).mesh;
+      mesh::SurfaceMesh& mesh = engine.meshToMove(id);
       for (int j = 0; j < substeps; ++j) {
         const auto t0 = std::chrono::steady_clock::now();
         physics::step(pp, *dynamics[k], mesh, dt / substeps);
         physicsSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         ++physicsSteps;
+        // The collision tree refits around what moved (all of it without an active region).
+        if (const auto moved = physics::movedVertices(*dynamics[k]))
+          engine.verticesMoved(id, *moved);
+        else
+          engine.verticesMoved(id);
       }
     }
   };
@@ -134,9 +145,12 @@ int cut(const Args& args) {
   j["walk_failures"] = st.walkFailures;
   j["fill_failures"] = st.fillFailures;
   j["physics"] = physicsMode;
-  j["separation_ms"] = st.separationSeconds * 1e3;
+  j["active_region"] = regionMode;
   j["collision_us_per_query"] = st.collisionQueries > 0 ? st.collisionSeconds * 1e6 / st.collisionQueries : 0.0;
   j["collision_queries"] = st.collisionQueries;
+  j["collision_full_refits"] = st.fullRefits;
+  j["collision_region_refits"] = st.regionRefits;
+  j["separation_ms"] = st.separationSeconds * 1e3;
   j["fast_samples"] = st.fastSamples;
   j["slow_samples"] = st.slowSamples;
   if (physicsOn) {

@@ -73,10 +73,23 @@ PhysicsSession::~PhysicsSession() {
 
 mesh::SurfaceMesh& PhysicsSession::meshOf(int id) {
 #ifdef LD_GUI_HAVE_CUTTING
-  return engine_->object(id).mesh;
+  // Positions change only in stepAll/settle, which tell the engine what moved.
+  return engine_->meshToMove(id);
 #else
   (void)id;
   return *plain_;
+#endif
+}
+
+// The engine's collision tree refits around what the body's last step moved.
+void PhysicsSession::movedBy(const Body& b) {
+#ifdef LD_GUI_HAVE_CUTTING
+  if (const auto moved = physics::movedVertices(b.dynamics))
+    engine_->verticesMoved(b.id, *moved);
+  else
+    engine_->verticesMoved(b.id);
+#else
+  (void)b;
 #endif
 }
 
@@ -129,6 +142,9 @@ void PhysicsSession::run() {
   };
   so.cancel = [this] { return stop_.load(); };
   physics::settle(params_, bodies_[0].dynamics, meshOf(bodies_[0].id), so);
+#ifdef LD_GUI_HAVE_CUTTING
+  engine_->verticesMoved(bodies_[0].id);
+#endif
   settleProgress_ = 1.0;
   publish();
   settled_ = true;
@@ -161,6 +177,7 @@ void PhysicsSession::stepAll(double dt) {
   std::uint64_t warnings = 0, implicit = 0, resets = 0;
   for (auto& b : bodies_) {
     physics::step(params_, b.dynamics, meshOf(b.id), dt);
+    movedBy(b);
     warnings += b.dynamics.stability.warnings;
     implicit += b.dynamics.stability.implicitFallbacks;
     resets += b.dynamics.stability.velocityResets;
@@ -219,7 +236,8 @@ void PhysicsSession::publish() {
       SceneObject o;
       o.id = b.id;
 #ifdef LD_GUI_HAVE_CUTTING
-      o.parent = engine_->object(b.id).parent;
+      for (const auto& eo : engine_->objects())  // const: object() would mean "all moved"
+        if (eo.id == b.id) o.parent = eo.parent;
 #endif
       o.topology = m.topologyVersion();
       o.mesh.positions.resize(m.verticesSize());

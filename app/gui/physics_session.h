@@ -161,6 +161,7 @@ class PhysicsSession {
   void noteStep(double us, std::uint64_t window);  // sim thread
   void publish();
   mesh::SurfaceMesh& meshOf(int id);
+  void movedBy(const Body& b);
   void addBodies();
   void afterCut(const cutting::StepResult& r);
   void setForce(int object, std::uint32_t v, const Eigen::Vector3d& f);              // sim thread

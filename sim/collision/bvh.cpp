@@ -877,6 +877,14 @@ void TriangleBvh::insertFaces(const mesh::SurfaceMesh& m, std::span<const Face> 
 }
 
 void TriangleBvh::removeFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
+  removeTracked(m, faces, true);
+}
+
+void TriangleBvh::releaseFaces(const mesh::SurfaceMesh& m, std::span<const Face> faces) {
+  removeTracked(m, faces, false);
+}
+
+void TriangleBvh::removeTracked(const mesh::SurfaceMesh& m, std::span<const Face> faces, bool countAsEdits) {
   checkMesh(m, "removeFaces");
   dirty_.clear();
   for (Face f : faces) {
@@ -896,7 +904,7 @@ void TriangleBvh::removeFaces(const mesh::SurfaceMesh& m, std::span<const Face> 
     faceSlot_[f.idx()] = kNone;
     dirty_.push_back(leaf);
     --tracked_;
-    ++editsSinceBuild_;
+    if (countAsEdits) ++editsSinceBuild_;
   }
   // Leaf boxes read only the faces still listed, so dead faces are never touched.
   refitUpwards(m, dirty_);

@@ -109,6 +109,10 @@ class TriangleBvh {
   void insertFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
   // Untracked faces are ignored. Faces may already be deleted in the mesh.
   void removeFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
+  // The same for faces that leave with a freed piece (separation): not counted toward
+  // a rebuild (kRebuildFraction), since removing faces never loosens the boxes of the
+  // faces that stay; remap() rebuilds when a compaction leaves few of them.
+  void releaseFaces(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces);
 
   // All contacts of segment a->b, sorted and canonical exactly as the brute-force
   // ld::collision::intersectSegment returns them. `out` is cleared first.
@@ -161,6 +165,7 @@ class TriangleBvh {
     [[nodiscard]] bool leaf() const { return count != kInner; }
   };
   static Node emptyNode();
+  void removeTracked(const mesh::SurfaceMesh& m, std::span<const mesh::Face> faces, bool countAsEdits);
   struct TriRef {
     std::uint32_t face, v[3];
   };

@@ -192,7 +192,8 @@ struct CutEngine::Impl {
   // TriangleBvh::sync (local); moved vertices (physics, through object()) by a refit
   // at the next sample; compacted meshes (separation) by a rebuild.
   std::vector<collision::TriangleBvh> bvhs;
-  std::vector<char> moved;
+  std::vector<char> moved;                            // every vertex may have moved
+  std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
   std::vector<collision::SurfaceHit> scratchHits;
   std::vector<Face> scratchFaces;
   int nextId = 0;
@@ -1719,47 +1720,111 @@ struct CutEngine::Impl {
         if (t.alive && t.object == obj) terminate(t);
   }
 
-  static void keepComponent(SurfaceMesh& m, const mesh::Components& c, int label) {
-    for (Face f : m.faces())
-      if (c.faceLabel[f.idx()] != label) m.deleteFace(f);
-    for (Vertex v : m.vertices())
-      if (m.isIsolated(v)) m.deleteVertex(v);
-    m.garbageCollection();
+  // Where an object's mesh journal stood when the object was last known to be one
+  // component: its components since are found from the edits after that point
+  // (SurfaceMesh::splitComponents), in proportion to the pieces that come off, not to
+  // the mesh. layout 0: not known (a new object), the full labelling once.
+  struct Connected {
+    std::uint64_t layout = 0;
+    std::size_t journalFaces = 0, journalEdges = 0, facesSize = 0;
+  };
+  std::vector<Connected> connected;
+  mesh::ComponentScratch componentScratch;
+  std::vector<Face> seeds;
+  // A kept mesh is compacted (and its tree remapped) only once its dead faces
+  // outnumber half its live ones: O(1) per removed face, not O(mesh) per separation.
+  static constexpr double kCompactDeadShare = 0.5;
+
+  void markConnected(std::size_t k) {
+    const SurfaceMesh& m = objects[k].mesh;
+    connected[k] = {m.layoutVersion(), m.editedFaces().size(), m.editedEdges().size(), m.facesSize()};
+  }
+
+  mesh::SplitComponents componentsOf(std::size_t k) {
+    const SurfaceMesh& m = objects[k].mesh;
+    const Connected& c = connected[k];
+    if (c.layout != m.layoutVersion() || c.journalFaces > m.editedFaces().size() ||
+        c.journalEdges > m.editedEdges().size())
+      return m.splitComponents();
+    // Every component holds an edited face or a face of an edited edge: a component
+    // without one has the neighbours it had when the mesh was one piece, so it is
+    // all the old faces (then one of them is a seed too, below).
+    seeds.clear();
+    bool oldFace = false;
+    for (Face f : m.editedFaces().subspan(c.journalFaces))
+      if (m.isValid(f)) seeds.push_back(f);
+    for (Edge e : m.editedEdges().subspan(c.journalEdges))
+      if (m.isValid(e))
+        for (int i = 0; i < 2; ++i)
+          if (const Face f = m.face(e, i); f.isValid()) seeds.push_back(f);
+    for (Face f : seeds) oldFace = oldFace || f.idx() < c.facesSize;
+    if (!oldFace)
+      for (Face f : m.faces()) {
+        seeds.push_back(f);  // the first live face (old, since nothing old was touched)
+        break;
+      }
+    return m.splitComponents(seeds, componentScratch);
   }
 
   void separate(int obj) {
     CpuTimer timer{separationSeconds};
     const int idx = indexOf(obj);
     if (idx < 0) return;
-    if (objects[static_cast<std::size_t>(idx)].mesh.connectedComponents().count <= 1) return;
+    const std::size_t k = static_cast<std::size_t>(idx);
+    mesh::SplitComponents c = componentsOf(k);
+    if (c.count <= 1) {
+      markConnected(k);
+      return;
+    }
     // Handles change below: every open cut on this object ends first.
+    const std::size_t journalF = objects[k].mesh.editedFaces().size();
+    const std::size_t journalE = objects[k].mesh.editedEdges().size();
     endTracksOn(obj);
     fixPinches();
-    const mesh::Components c = objects[static_cast<std::size_t>(idx)].mesh.connectedComponents();
-    if (c.count <= 1) return;
-    std::vector<long> size(static_cast<std::size_t>(c.count), 0);
-    for (int l : c.faceLabel)
-      if (l >= 0) ++size[static_cast<std::size_t>(l)];
-    const int keep = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
-    for (int l = 0; l < c.count; ++l) {
-      if (l == keep) continue;
-      TissueObject piece;
-      piece.id = nextId++;
-      piece.parent = obj;
-      piece.closedAtStart = objects[static_cast<std::size_t>(idx)].closedAtStart;
-      piece.mesh = objects[static_cast<std::size_t>(idx)].mesh;
-      keepComponent(piece.mesh, c, l);
-      const bool t = hasTissue[static_cast<std::size_t>(idx)];
-      objects.push_back(std::move(piece));
-      hasTissue.push_back(t);
-      bvhs.emplace_back(objects.back().mesh);
-      moved.push_back(0);
-      res->separated.push_back(objects.back().id);
-      ++stats.separations;
+    const SurfaceMesh& m = objects[k].mesh;
+    if (m.editedFaces().size() != journalF || m.editedEdges().size() != journalE) c = componentsOf(k);
+    if (c.count > 1) {
+      for (const auto& faces : c.pieces) {
+        TissueObject piece;
+        piece.id = nextId++;
+        piece.parent = obj;
+        piece.closedAtStart = objects[k].closedAtStart;
+        piece.mesh = objects[k].mesh.extract(faces);
+        const bool t = hasTissue[k];
+        objects.push_back(std::move(piece));
+        hasTissue.push_back(t);
+        bvhs.emplace_back(objects.back().mesh);
+        moved.push_back(0);
+        movedList.emplace_back();
+        connected.emplace_back();
+        markConnected(objects.size() - 1);
+        res->separated.push_back(objects.back().id);
+        ++stats.separations;
+      }
+      removePieces(k, c.pieces);
     }
-    const std::size_t k = static_cast<std::size_t>(indexOf(obj));
-    keepComponent(objects[k].mesh, c, keep);
-    bvhs[k].build(objects[k].mesh);  // compacted: handles renumbered
+    markConnected(k);
+  }
+
+  // The freed pieces leave the kept mesh (their faces, and their vertices left
+  // without a face); its tree follows locally.
+  void removePieces(std::size_t k, const std::vector<std::vector<Face>>& pieces) {
+    SurfaceMesh& m = objects[k].mesh;
+    syncBvh(k);
+    for (const auto& faces : pieces) {
+      for (Face f : faces) m.deleteFace(f);
+      bvhs[k].releaseFaces(m, faces);
+    }
+    for (const auto& faces : pieces)
+      for (Face f : faces)
+        for (Vertex v : m.vertices(f))  // a deleted face keeps its corners
+          if (m.isValid(v) && m.isIsolated(v)) m.deleteVertex(v);
+    syncBvh(k);
+    const double dead = static_cast<double>(m.facesSize() - m.nFaces());
+    if (dead > kCompactDeadShare * static_cast<double>(m.nFaces())) {
+      const mesh::Compaction cm = m.garbageCollection();
+      bvhs[k].remap(m, cm);
+    }
   }
 
   // ---- samples ------------------------------------------------------------------------------------
@@ -1768,8 +1833,36 @@ struct CutEngine::Impl {
   void syncBvh(std::size_t i) {
     const SurfaceMesh& m = objects[i].mesh;
     collision::TriangleBvh& b = bvhs[i];
-    if (b.sync(m) != collision::SyncResult::Rebuilt && moved[i]) b.refit(m);
+    if (b.sync(m) != collision::SyncResult::Rebuilt) {
+      if (moved[i]) {
+        b.refit(m);
+        ++stats.fullRefits;
+      } else if (!movedList[i].empty()) {
+        b.refitVertices(m, std::span<const std::uint32_t>(movedList[i]));
+        ++stats.regionRefits;
+        stats.verticesRefitted += static_cast<long>(movedList[i].size());
+      }
+    }
     moved[i] = 0;
+    movedList[i].clear();
+  }
+
+  // Physics moved these vertices (told by verticesMoved): kept until the next query.
+  void noteMoved(std::size_t i, std::span<const std::uint32_t> list) {
+    if (moved[i]) return;
+    const SurfaceMesh& m = objects[i].mesh;
+    for (std::uint32_t v : list)
+      if (v >= m.verticesSize()) throw CutError("verticesMoved: vertex index " + std::to_string(v) + " out of range");
+    auto& l = movedList[i];
+    l.insert(l.end(), list.begin(), list.end());
+    if (2 * l.size() > m.verticesSize()) {  // several steps' lists: each vertex once
+      std::sort(l.begin(), l.end());
+      l.erase(std::unique(l.begin(), l.end()), l.end());
+    }
+    if (2 * l.size() > m.verticesSize()) {  // most of the mesh: one full refit is cheaper
+      moved[i] = 1;
+      l.clear();
+    }
   }
 
   // Appends the crossings of segment a-b with every object to `out`.
@@ -2233,6 +2326,10 @@ int CutEngine::addObject(mesh::SurfaceMesh m) {
   impl_->objects.push_back(std::move(o));
   impl_->bvhs.emplace_back(impl_->objects.back().mesh);
   impl_->moved.push_back(0);
+  impl_->movedList.emplace_back();
+  impl_->connected.emplace_back();
+  // Known to be one piece: separation checks search from the edits only.
+  if (impl_->objects.back().mesh.connectedComponents().count <= 1) impl_->markConnected(impl_->objects.size() - 1);
   return impl_->objects.back().id;
 }
 
@@ -2245,6 +2342,20 @@ TissueObject& CutEngine::object(int id) {
   impl_->moved[static_cast<std::size_t>(i)] = 1;
   return impl_->objects[static_cast<std::size_t>(i)];
 }
+
+mesh::SurfaceMesh& CutEngine::meshToMove(int id) {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  return impl_->objects[static_cast<std::size_t>(i)].mesh;
+}
+
+void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  impl_->noteMoved(static_cast<std::size_t>(i), vertices);
+}
+
+void CutEngine::verticesMoved(int id) { (void)object(id); }
 
 StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
   if (!pose.tip.allFinite() || !pose.dir.allFinite() || !pose.up.allFinite() || pose.dir.norm() < 1e-12)

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -114,9 +115,12 @@ struct CutStats {
   long unpinched = 0;              // pinched vertices split (safety net)
   long flips = 0;                  // edges flipped to remove thin triangles
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
-  double separationSeconds = 0.0;  // time splitting freed pieces into objects (O(mesh size), rare)
+  double separationSeconds = 0.0;  // time finding and splitting off freed pieces (local search; rare)
   double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)
   long collisionQueries = 0;       // segment queries (one per cutting edge per sub-sample)
+  long fullRefits = 0;             // whole collision trees refitted (vertices moved through object())
+  long regionRefits = 0;           // trees refitted only around named vertices (verticesMoved)
+  long verticesRefitted = 0;       // vertices named in those region refits
   long fastSamples = 0;            // track samples that stayed in the pending triangle (no edit)
   long slowSamples = 0;            // track samples that walked or edited the mesh (timed)
   [[nodiscard]] double remeshMicrosPerCutTriangle() const {
@@ -139,6 +143,15 @@ class CutEngine {
   // Throws CutError for an unknown id. Do not change the connectivity of a mesh
   // while a stroke is open on it (positions may change: physics moves vertices).
   [[nodiscard]] TissueObject& object(int id);
+  // Moving vertices without the whole-tree refit that object() implies (e.g. physics
+  // stepping the mesh in place): move positions of meshToMove(id), then name what moved
+  // with verticesMoved(id, indices) (physics::movedVertices) before the next sample;
+  // only the collision tree's boxes around those vertices are refitted. verticesMoved(id)
+  // says every vertex may have moved. Do not change the connectivity. Throws CutError
+  // for an unknown id or an index out of range.
+  [[nodiscard]] mesh::SurfaceMesh& meshToMove(int id);
+  void verticesMoved(int id, std::span<const std::uint32_t> vertices);
+  void verticesMoved(int id);
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

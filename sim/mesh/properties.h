@@ -45,6 +45,8 @@ class BasePropertyArray {
   virtual void copyElement(std::size_t from, std::size_t to) = 0;
   // Keeps element old[i] at position i for i < keep.size().
   virtual void compact(const std::vector<std::size_t>& keep) = 0;
+  // A new array holding the elements `idx` (in that order).
+  [[nodiscard]] virtual std::unique_ptr<BasePropertyArray> gather(const std::vector<std::size_t>& idx) const = 0;
   [[nodiscard]] virtual std::unique_ptr<BasePropertyArray> clone() const = 0;
   [[nodiscard]] virtual const std::type_info& type() const = 0;
   [[nodiscard]] const std::string& name() const { return name_; }
@@ -66,6 +68,12 @@ class PropertyArray final : public BasePropertyArray {
     out.reserve(keep.size());
     for (std::size_t i : keep) out.push_back(std::move(data_[i]));
     data_.swap(out);
+  }
+  [[nodiscard]] std::unique_ptr<BasePropertyArray> gather(const std::vector<std::size_t>& idx) const override {
+    auto p = std::make_unique<PropertyArray<T>>(name(), default_);
+    p->data_.reserve(idx.size());
+    for (std::size_t i : idx) p->data_.push_back(data_[i]);
+    return p;
   }
   [[nodiscard]] std::unique_ptr<BasePropertyArray> clone() const override {
     auto p = std::make_unique<PropertyArray<T>>(name(), default_);
@@ -182,6 +190,15 @@ class PropertyContainer {
     for (auto& a : arrays_) a->compact(keep);
     size_ = keep.size();
     capacity_ = size_;
+  }
+  // A container with the same properties holding only the elements `idx` (in that
+  // order): copying part of a mesh costs in proportion to the part.
+  [[nodiscard]] PropertyContainer gather(const std::vector<std::size_t>& idx) const {
+    PropertyContainer out;
+    for (const auto& a : arrays_) out.arrays_.push_back(a->gather(idx));
+    out.size_ = idx.size();
+    out.capacity_ = idx.size();
+    return out;
   }
   [[nodiscard]] std::size_t size() const { return size_; }
   // Every array can hold this many elements without reallocating.

@@ -649,6 +649,237 @@ Components SurfaceMesh::connectedComponents() const {
   return c;
 }
 
+namespace {
+
+// Old index -> new index for the elements of a part (open addressing, linear
+// probing): cost in proportion to the part, not to the mesh.
+class IndexMap {
+ public:
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  explicit IndexMap(std::size_t n) {
+    std::size_t c = 16;
+    while (c < 2 * n + 2) c <<= 1;
+    keys_.assign(c, kNone);
+    vals_.assign(c, kNone);
+  }
+  // Inserts `k` (value kNone) when new; returns whether it was.
+  bool insert(std::uint32_t k) {
+    std::size_t i = slot(k);
+    if (keys_[i] == k) return false;
+    keys_[i] = k;
+    return true;
+  }
+  void set(std::uint32_t k, std::uint32_t v) { vals_[slot(k)] = v; }
+  [[nodiscard]] std::uint32_t find(std::uint32_t k) const {
+    const std::size_t i = slot(k);
+    return keys_[i] == k ? vals_[i] : kNone;
+  }
+
+ private:
+  [[nodiscard]] std::size_t slot(std::uint32_t k) const {
+    const std::size_t mask = keys_.size() - 1;
+    std::size_t i = (static_cast<std::size_t>(k) * 0x9E3779B1u) & mask;
+    while (keys_[i] != k && keys_[i] != kNone) i = (i + 1) & mask;
+    return i;
+  }
+  std::vector<std::uint32_t> keys_, vals_;
+};
+
+// Sorted unique list of the map's keys (given in `list`, unique), ranks stored as values.
+void rank(std::vector<std::size_t>& list, IndexMap& map) {
+  std::sort(list.begin(), list.end());
+  for (std::size_t j = 0; j < list.size(); ++j)
+    map.set(static_cast<std::uint32_t>(list[j]), static_cast<std::uint32_t>(j));
+}
+
+}  // namespace
+
+SplitComponents SurfaceMesh::splitComponents() const {
+  const Components c = connectedComponents();
+  std::vector<std::vector<Face>> all(static_cast<std::size_t>(c.count));
+  for (Face f : faces()) all[static_cast<std::size_t>(c.faceLabel[f.idx()])].push_back(f);
+  std::size_t keep = 0;
+  for (std::size_t l = 1; l < all.size(); ++l)
+    if (all[l].size() > all[keep].size()) keep = l;
+  SplitComponents out;
+  out.count = c.count;
+  out.largestFaces = all.empty() ? 0 : all[keep].size();
+  for (std::size_t l = 0; l < all.size(); ++l)
+    if (l != keep) out.pieces.push_back(std::move(all[l]));
+  out.facesVisited = nFaces();
+  return out;
+}
+
+SplitComponents SurfaceMesh::splitComponents(std::span<const Face> seeds, ComponentScratch& s) const {
+  using Search = ComponentScratch::Search;
+  const std::size_t nf = facesSize();
+  if (s.seen.size() < nf) {
+    s.seen.resize(nf, 0);
+    s.owner.resize(nf, 0);
+  }
+  if (++s.generation == 0) {
+    std::fill(s.seen.begin(), s.seen.end(), 0);
+    s.generation = 1;
+  }
+  const std::uint32_t gen = s.generation;
+  std::uint32_t used = 0;
+  auto root = [&](std::uint32_t i) {
+    while (s.searches[i].parent != i) i = s.searches[i].parent = s.searches[s.searches[i].parent].parent;
+    return i;
+  };
+  auto reach = [&](std::uint32_t id, Face g) {
+    s.seen[g.idx()] = gen;
+    s.owner[g.idx()] = id;
+    Search& x = s.searches[id];
+    x.stack.push_back(g);
+    x.faces.push_back(g);
+    x.minFace = std::min(x.minFace, g.idx());
+  };
+  // The larger search takes the smaller one's faces and frontier.
+  auto merge = [&](std::uint32_t a, std::uint32_t b) {
+    if (s.searches[a].faces.size() < s.searches[b].faces.size()) std::swap(a, b);
+    Search& big = s.searches[a];
+    Search& small = s.searches[b];
+    big.faces.insert(big.faces.end(), small.faces.begin(), small.faces.end());
+    big.stack.insert(big.stack.end(), small.stack.begin(), small.stack.end());
+    big.minFace = std::min(big.minFace, small.minFace);
+    small.parent = a;
+    small.faces.clear();
+    small.stack.clear();
+    return a;
+  };
+  std::size_t visited = 0;
+  // One face of search `id` (a root that is not done); a finished component's faces
+  // are never reached by another search (their neighbours are all its own).
+  auto advance = [&](std::uint32_t id) {
+    if (s.searches[id].stack.empty()) {
+      s.searches[id].done = true;
+      return;
+    }
+    const Face f = s.searches[id].stack.back();
+    s.searches[id].stack.pop_back();
+    ++visited;
+    std::uint32_t cur = id;
+    for (Edge e : fedges_[f]) {
+      const Face g = otherFace(e, f);
+      if (!g.isValid()) continue;
+      if (s.seen[g.idx()] != gen) {
+        reach(cur, g);
+        continue;
+      }
+      const std::uint32_t o = root(s.owner[g.idx()]);
+      if (o != cur) cur = merge(cur, o);
+    }
+  };
+
+  s.active.clear();
+  for (Face f : seeds) {
+    if (!isValid(f) || s.seen[f.idx()] == gen) continue;
+    if (used == s.searches.size()) s.searches.emplace_back();
+    Search& x = s.searches[used];
+    x.stack.clear();
+    x.faces.clear();
+    x.parent = used;
+    x.minFace = f.idx();
+    x.done = false;
+    reach(used, f);
+    s.active.push_back(used++);
+  }
+  auto isOpen = [&](std::uint32_t id) { return s.searches[id].parent == id && !s.searches[id].done; };
+  for (;;) {
+    std::erase_if(s.active, [&](std::uint32_t id) { return !isOpen(id); });
+    if (s.active.size() <= 1) break;
+    for (std::size_t k = 0; k < s.active.size(); ++k)
+      if (isOpen(s.active[k])) advance(s.active[k]);
+  }
+
+  SplitComponents out;
+  std::size_t doneFaces = 0, maxDone = 0;
+  for (std::uint32_t i = 0; i < used; ++i)
+    if (s.searches[i].parent == i && s.searches[i].done) {
+      doneFaces += s.searches[i].faces.size();
+      maxDone = std::max(maxDone, s.searches[i].faces.size());
+    }
+  const bool hasOpen = !s.active.empty();
+  const std::uint32_t open = hasOpen ? s.active.front() : 0;
+  const std::size_t rest = nFaces() - std::min(nFaces(), doneFaces);
+  if (hasOpen && rest <= maxDone) {
+    // It may not be the largest (or ties with one): finish it, bounded by maxDone.
+    while (!s.searches[open].done) advance(open);
+  }
+  const bool openLargest = hasOpen && !s.searches[open].done;
+  if (!hasOpen && doneFaces != nFaces()) {
+    // Some component had no seed (precondition broken): the full labelling.
+    out = splitComponents();
+    out.facesVisited += visited;
+    return out;
+  }
+  // Finished components; the largest stays unlisted.
+  std::vector<std::uint32_t> comps;
+  for (std::uint32_t i = 0; i < used; ++i)
+    if (s.searches[i].parent == i && s.searches[i].done) comps.push_back(i);
+  std::sort(comps.begin(), comps.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return s.searches[a].minFace < s.searches[b].minFace; });
+  out.count = static_cast<int>(comps.size()) + (openLargest ? 1 : 0);
+  std::size_t keep = comps.size();
+  if (openLargest) {
+    out.largestFaces = rest;
+  } else {
+    for (std::size_t k = 0; k < comps.size(); ++k)
+      if (keep == comps.size() || s.searches[comps[k]].faces.size() > s.searches[comps[keep]].faces.size()) keep = k;
+    if (keep < comps.size()) out.largestFaces = s.searches[comps[keep]].faces.size();
+  }
+  for (std::size_t k = 0; k < comps.size(); ++k) {
+    if (k == keep) continue;
+    std::vector<Face>& piece = out.pieces.emplace_back(s.searches[comps[k]].faces);
+    std::sort(piece.begin(), piece.end());
+  }
+  out.facesVisited = visited;
+  return out;
+}
+
+SurfaceMesh SurfaceMesh::extract(std::span<const Face> faces) const {
+  std::vector<std::size_t> vi, ei, fi;
+  IndexMap vmap(3 * faces.size()), emap(3 * faces.size()), fmap(faces.size());
+  fi.reserve(faces.size());
+  ei.reserve(2 * faces.size());
+  vi.reserve(faces.size());
+  for (Face f : faces) {
+    check(f, "extract");
+    if (!fmap.insert(f.idx())) continue;
+    fi.push_back(f.idx());
+    for (Edge e : fedges_[f])
+      if (emap.insert(e.idx())) ei.push_back(e.idx());
+    for (Vertex v : fverts_[f])
+      if (vmap.insert(v.idx())) vi.push_back(v.idx());
+  }
+  rank(fi, fmap);
+  rank(ei, emap);
+  rank(vi, vmap);
+  SurfaceMesh out;
+  out.vprops_ = vprops_.gather(vi);
+  out.eprops_ = eprops_.gather(ei);
+  out.fprops_ = fprops_.gather(fi);
+  out.bindProperties();
+  for (auto& list : out.vedges_.vector()) {
+    std::erase_if(list, [&](Edge e) { return emap.find(e.idx()) == IndexMap::kNone; });
+    for (Edge& e : list) e = Edge(emap.find(e.idx()));
+  }
+  for (auto& ev : out.everts_.vector())
+    for (Vertex& v : ev) v = Vertex(vmap.find(v.idx()));
+  for (auto& ef : out.efaces_.vector()) {
+    for (Face& f : ef)
+      if (f.isValid()) f = Face(fmap.find(f.idx()));  // kNone: a face not listed
+    if (!ef[0].isValid()) std::swap(ef[0], ef[1]);
+  }
+  for (auto& fv : out.fverts_.vector())
+    for (Vertex& v : fv) v = Vertex(vmap.find(v.idx()));
+  for (auto& fe : out.fedges_.vector())
+    for (Edge& e : fe) e = Edge(emap.find(e.idx()));
+  out.topologyVersion_ = topologyVersion_ + 1;
+  return out;
+}
+
 std::vector<std::vector<Vertex>> SurfaceMesh::boundaryLoops() const {
   // A boundary edge runs x -> y in its face; the loop walks it y -> x.
   std::vector<std::vector<Vertex>> loops;

@@ -57,6 +57,32 @@ struct Components {
   std::vector<int> vertexLabel;  // per vertex index; -1 for deleted or isolated vertices
 };
 
+// The result of SurfaceMesh::splitComponents.
+struct SplitComponents {
+  int count = 0;  // components in all (as connectedComponents().count)
+  // Every component but the largest, each sorted by face index, in the order of their
+  // lowest face index (connectedComponents()'s label order).
+  std::vector<std::vector<Face>> pieces;
+  std::size_t largestFaces = 0;  // faces of the largest component (not listed)
+  std::size_t facesVisited = 0;  // faces the searches reached (the work done)
+};
+
+// Workspace of splitComponents, kept by the caller between calls: its per-face marks
+// grow with the mesh once and are never cleared as a whole.
+struct ComponentScratch {
+  std::vector<std::uint32_t> seen;   // per face index: the call that reached it
+  std::vector<std::uint32_t> owner;  // per face index: the search that reached it
+  std::uint32_t generation = 0;
+  struct Search {
+    std::vector<Face> stack, faces;
+    std::uint32_t parent = 0;
+    std::uint32_t minFace = 0;
+    bool done = false;
+  };
+  std::vector<Search> searches;
+  std::vector<std::uint32_t> active;
+};
+
 struct BoundingBox {
   Point min = Point::Constant(0.0);
   Point max = Point::Constant(0.0);
@@ -239,6 +265,25 @@ class SurfaceMesh {
 
   // ---- global structure ----------------------------------------------------
   [[nodiscard]] Components connectedComponents() const;
+  // The same split by searching outwards from `seeds` alone, one search per seed,
+  // advanced in turn one face at a time (searches that meet merge): it stops once a
+  // single search is open and the faces left for it outnumber every finished
+  // component, so the largest component is never walked to its end and the cost is in
+  // proportion to the other components (times the searches running at once), not to
+  // the mesh. Pre: every component holds a seed face (e.g. the faces and the faces of
+  // the edges an edit touched, in a mesh that was connected before it: see
+  // editedFaces()/editedEdges()). Dead or repeated seeds are ignored. The largest
+  // component is chosen as connectedComponents() labels would (most faces; ties: the
+  // one with the lowest face index).
+  [[nodiscard]] SplitComponents splitComponents(std::span<const Face> seeds, ComponentScratch& scratch) const;
+  // The same from the full labelling (O(mesh)), for a mesh with no seeds to go by.
+  [[nodiscard]] SplitComponents splitComponents() const;
+  // A new mesh of `faces` (live, each once), the edges and vertices they use and all
+  // their properties, in their old relative order (as if every other face and the
+  // elements left unused were deleted and the copy compacted), at a cost in proportion
+  // to the part, not to this mesh. A vertex shared with faces not listed keeps only
+  // the listed faces' edges.
+  [[nodiscard]] SurfaceMesh extract(std::span<const Face> faces) const;
   // Each loop lists its vertices in order, walking boundary edges opposite to the
   // direction of their face (so the loop runs around the hole counter-clockwise).
   [[nodiscard]] std::vector<std::vector<Vertex>> boundaryLoops() const;

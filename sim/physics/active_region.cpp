@@ -55,6 +55,11 @@ void wakeVertex(detail::ActiveSet& a, const detail::Cache& c, std::uint32_t j, b
 
 }  // namespace
 
+std::optional<std::span<const std::uint32_t>> movedVertices(const Dynamics& d) {
+  if (d.active.movedStep != d.steps) return std::nullopt;
+  return std::span<const std::uint32_t>(d.active.moved);
+}
+
 void wake(Dynamics& d, std::span<const mesh::Vertex> vertices) {
   for (const mesh::Vertex v : vertices)
     if (v.isValid()) d.active.pending.push_back(static_cast<std::uint32_t>(v.idx()));
@@ -129,6 +134,7 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
       v[i].setZero();
     }
   }
+  a.moved.assign(a.list.begin(), a.list.begin() + static_cast<std::ptrdiff_t>(m));
   // Drop the vertices that fell asleep (and stayed asleep) from the list.
   std::size_t kept = 0;
   for (const std::uint32_t i : a.list) {
@@ -140,6 +146,7 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
   a.list.resize(kept);
   state.time += dt;
   ++state.steps;
+  a.movedStep = state.steps;
   StepInfo info;
   info.activeVertices = m;
   return info;

@@ -20,6 +20,7 @@
 #include <limits>
 #include <memory>
 #include <new>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -200,10 +201,12 @@ struct Cache {
 struct ActiveSet {
   std::vector<std::uint8_t> awake;  // 0 asleep, 1 awake, 2 fell asleep this step
   std::vector<std::uint16_t> quiet;
-  std::vector<std::uint32_t> list;                 // awake vertices (kept between steps)
-  std::vector<std::uint32_t> pending;              // named by wake(), woken at the next step
-  std::vector<std::uint8_t> loud;                  // step scratch
-  std::vector<std::uint32_t> csrStart, csrSpring;  // vertex → incident springs
+  std::vector<std::uint32_t> list;                                      // awake vertices (kept between steps)
+  std::vector<std::uint32_t> moved;                                     // vertices the last active step integrated
+  std::uint64_t movedStep = std::numeric_limits<std::uint64_t>::max();  // Dynamics::steps after it
+  std::vector<std::uint32_t> pending;                                   // named by wake(), woken at the next step
+  std::vector<std::uint8_t> loud;                                       // step scratch
+  std::vector<std::uint32_t> csrStart, csrSpring;                       // vertex → incident springs
   std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
 };
 }  // namespace detail
@@ -253,6 +256,11 @@ StepInfo step(const Params& params, Dynamics& dynamics, mesh::SurfaceMesh& mesh,
 // next step and stay awake while their force is not zero. Needed with
 // ActiveRegionOptions::scanExternalForces off; the names wait for the next active step.
 void wake(Dynamics& dynamics, std::span<const mesh::Vertex> vertices);
+
+// The vertices (indices) the last step moved, for a collision tree's local refit: in
+// active-region mode the vertices that step integrated (those that fell asleep in it
+// included); nullopt when every vertex may have moved (a full step, or none yet).
+[[nodiscard]] std::optional<std::span<const std::uint32_t>> movedVertices(const Dynamics& dynamics);
 
 // One raw step of `method` without the monitor (for analysis; may diverge).
 // Returns false when the result is not finite (the state is still updated).

@@ -117,6 +117,32 @@ TEST(CutCli, PhysicsOnRunsAndStaysFinite) {
   EXPECT_EQ(j["physics_implicit_fallbacks"], 0);
 }
 
+// Physics moves every vertex: one full collision refit per step, none local. With the
+// active region the engine is told only the awake vertices (all of them for a while
+// after each cut edit, which wakes the whole tissue), nothing once it sleeps.
+TEST(CutCli, PhysicsTellsTheCutterWhatMoved) {
+  TempDir d;
+  writeBox(d.path / "box.obj");
+  writeStroke(d.path / "groove.csv", 2, 8, 5.3, 1.0, 400);
+  {
+    // Then one second with the blade lifted: the tissue settles and falls asleep.
+    std::ofstream o(d.path / "groove.csv", std::ios::app);
+    for (int i = 1; i <= 1000; ++i) o << (400 + i) * 0.001 << ",right,scalpel,8,5.3,10,0,0,-1,1,0,0,0,0\n";
+  }
+  const std::string base = "cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
+                           shellQuote((d.path / "groove.csv").string()) + " --physics on";
+  const auto full = run(base);
+  EXPECT_GT(full["collision_full_refits"].get<long>(), 100);
+  EXPECT_EQ(full["collision_region_refits"], 0);
+  const auto region = run(base + " --active-region on");
+  EXPECT_EQ(region["active_region"], "on");
+  EXPECT_EQ(region["nan"], false);
+  EXPECT_EQ(region["closed"], true);
+  EXPECT_GT(region["collision_region_refits"].get<long>(), 0);
+  EXPECT_LT(region["collision_full_refits"].get<long>(), full["collision_full_refits"].get<long>());
+  run(base + " --active-region maybe", 2);
+}
+
 TEST(CutCli, BadInputExitsWithTwo) {
   TempDir d;
   writeBox(d.path / "box.obj");

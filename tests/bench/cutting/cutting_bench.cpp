@@ -2,6 +2,9 @@
 // step before and after 1000 cut triangles.
 //   cutting_bench --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
+#include <time.h>
+
+#include <algorithm>
 
 #include "sim/cutting/cutter.h"
 #include "sim/cutting/mesh_checks.h"
@@ -17,6 +20,17 @@ ld::mesh::SurfaceMesh slab() {
   return ld::cutting::test::makeBox(Vec3(-40, -30, -2.5), Vec3(40, 30, 2.5), {54, 40, 4});
 }
 
+// The same slab at about 100k triangles (180 x 134 x 4 cells: 101k faces).
+ld::mesh::SurfaceMesh slab100k() {
+  return ld::cutting::test::makeBox(Vec3(-40, -30, -2.5), Vec3(40, 30, 2.5), {180, 134, 4});
+}
+
+double threadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 // Parallel strokes across the slab: cut-through (tip below) or groove (tip inside).
 void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
   for (int s = 0; s < strokes; ++s) {
@@ -25,19 +39,27 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
   }
 }
 
-void BM_Remesh(benchmark::State& state) {
+// Counters (per run, the last iteration's):
+//   remesh_us_per_cut_triangle  CutStats::remeshSeconds / trianglesCut: thread CPU time
+//                               in the edits of samples that walked or edited the mesh
+//                               (collision queries and separation excluded);
+//   stroke_us_per_cut_triangle  thread CPU time of the whole strokes (everything: queries,
+//                               samples that changed nothing, separation) / trianglesCut;
+//   separation_ms               CutStats::separationSeconds (finding and splitting off
+//                               freed pieces).
+void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int kind) {
   // 0: cut-through, 1: groove 2 mm deep, 2: shallow groove 0.4 mm deep (the hook's
   // usual depth: long, low walls), 3: groove deepening through the bottom mid-stroke.
-  const double tipZ = state.range(0) == 0 ? -4.0 : (state.range(0) == 2 ? 2.1 : 0.5);
-  const auto base = slab();
-  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0;
+  const double tipZ = kind == 0 ? -4.0 : (kind == 2 ? 2.1 : 0.5);
+  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0, strokeUs = 0, sepMs = 0;
   long cut = 0;
   for (auto _ : state) {
     state.PauseTiming();
     ld::cutting::CutEngine e;
     e.addObject(base);
     state.ResumeTiming();
-    if (state.range(0) == 3) {
+    const double t0 = threadCpuSeconds();
+    if (kind == 3) {
       for (int k = 0; k < 4; ++k) {
         const double y = -25.0 + 50.0 * (k + 0.37) / 4;
         ld::cutting::test::polyStroke(
@@ -47,9 +69,12 @@ void BM_Remesh(benchmark::State& state) {
     } else {
       cutStrokes(e, 4, tipZ);
     }
+    const double strokeSeconds = threadCpuSeconds() - t0;
     const auto& st = e.stats();
     us = st.remeshMicrosPerCutTriangle();
     cut = st.trianglesCut;
+    strokeUs = strokeSeconds * 1e6 / static_cast<double>(std::max(1L, st.trianglesCut));
+    sepMs = st.separationSeconds * 1e3;
     perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
     collUs = st.collisionQueries > 0 ? st.collisionSeconds * 1e6 / static_cast<double>(st.collisionQueries) : 0.0;
     slowPerTri = static_cast<double>(st.slowSamples) / static_cast<double>(std::max(1L, st.trianglesCut));
@@ -68,10 +93,24 @@ void BM_Remesh(benchmark::State& state) {
   state.counters["collision_us_per_query"] = collUs;
   state.counters["slow_samples_per_cut_triangle"] = slowPerTri;
   state.counters["remesh_us_per_cut_triangle"] = us;
+  state.counters["stroke_us_per_cut_triangle"] = strokeUs;
+  state.counters["separation_ms"] = sepMs;
   state.counters["triangles_added_per_cut_triangle"] = perTri;
   state.counters["triangles_cut"] = static_cast<double>(cut);
 }
+
+void BM_Remesh(benchmark::State& state) {
+  static const auto base = slab();
+  remeshRun(state, base, static_cast<int>(state.range(0)));
+}
 BENCHMARK(BM_Remesh)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// The same strokes on the 100k-triangle slab (0: through, 1: groove).
+void BM_Remesh100k(benchmark::State& state) {
+  static const auto base = slab100k();
+  remeshRun(state, base, static_cast<int>(state.range(0)));
+}
+BENCHMARK(BM_Remesh100k)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_PhysicsStepAfterCuts(benchmark::State& state) {
   ld::cutting::CutEngine e;

@@ -597,5 +597,166 @@ TEST(SurfaceMesh, EditsNumberNewElementsAsBefore) {
   EXPECT_EQ(fp.hash, 0x5cc151d735ba8228ull);
 }
 
+// ---- local components and extraction -------------------------------------------------
+
+// Seeds from the journal since (faces, edges) sizes: the changed faces and the faces of
+// the changed edges (what the cutter passes after its edits).
+std::vector<Face> seedsSince(const SurfaceMesh& m, std::size_t f0, std::size_t e0) {
+  std::vector<Face> seeds;
+  for (Face f : m.editedFaces().subspan(f0))
+    if (m.isValid(f)) seeds.push_back(f);
+  for (Edge e : m.editedEdges().subspan(e0))
+    if (m.isValid(e))
+      for (int k = 0; k < 2; ++k)
+        if (m.face(e, k).isValid()) seeds.push_back(m.face(e, k));
+  return seeds;
+}
+
+// What splitComponents must return, from the full labelling: every component but the
+// largest (first such label), in label order.
+std::vector<std::vector<Face>> piecesByFullLabelling(const SurfaceMesh& m) {
+  const Components c = m.connectedComponents();
+  std::vector<std::vector<Face>> all(static_cast<std::size_t>(c.count));
+  for (Face f : m.faces()) all[static_cast<std::size_t>(c.faceLabel[f.idx()])].push_back(f);
+  std::size_t keep = 0;
+  for (std::size_t l = 1; l < all.size(); ++l)
+    if (all[l].size() > all[keep].size()) keep = l;
+  std::vector<std::vector<Face>> pieces;
+  for (std::size_t l = 0; l < all.size(); ++l)
+    if (l != keep) pieces.push_back(all[l]);
+  return pieces;
+}
+
+// Deletes the faces of grid column i (a strip from bottom to top) and of row j.
+void cutGrid(SurfaceMesh& m, int n, int column, int row) {
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      if (i == column || j == row)
+        for (int k = 0; k < 2; ++k) {
+          const Face f(2 * (j * n + i) + k);
+          if (m.isValid(f)) m.deleteFace(f);
+        }
+}
+
+TEST(SurfaceMesh, SplitComponentsFromSeedsEqualsTheFullLabelling) {
+  std::mt19937 rng(7);
+  ComponentScratch scratch;  // reused: marks of earlier calls must not leak
+  for (int trial = 0; trial < 60; ++trial) {
+    const int n = 6 + static_cast<int>(rng() % 10);
+    SurfaceMesh m = grid(n);
+    const std::size_t f0 = m.editedFaces().size(), e0 = m.editedEdges().size();
+    const int column = static_cast<int>(rng() % static_cast<unsigned>(n));
+    const int row = trial % 3 == 0 ? -1 : static_cast<int>(rng() % static_cast<unsigned>(n));
+    cutGrid(m, n, column, row);
+    const auto seeds = seedsSince(m, f0, e0);
+    const SplitComponents split = m.splitComponents(seeds, scratch);
+    const auto expected = piecesByFullLabelling(m);
+    ASSERT_EQ(split.count, m.connectedComponents().count) << "trial " << trial;
+    ASSERT_EQ(split.pieces, expected) << "trial " << trial << " n " << n << " column " << column << " row " << row;
+    std::size_t listed = 0;
+    for (const auto& p : split.pieces) listed += p.size();
+    EXPECT_EQ(split.largestFaces + listed, m.nFaces());
+  }
+}
+
+// Two halves of equal size: the one with the lowest face index is the largest (as
+// connectedComponents() labels them), the other is the piece.
+TEST(SurfaceMesh, SplitComponentsBreaksTiesByLowestFace) {
+  const int n = 9;
+  SurfaceMesh m = grid(n);
+  const std::size_t f0 = m.editedFaces().size(), e0 = m.editedEdges().size();
+  cutGrid(m, n, 4, -1);
+  ComponentScratch scratch;
+  const SplitComponents split = m.splitComponents(seedsSince(m, f0, e0), scratch);
+  ASSERT_EQ(split.count, 2);
+  ASSERT_EQ(split.pieces.size(), 1u);
+  EXPECT_EQ(split.largestFaces, split.pieces[0].size());
+  EXPECT_EQ(split.pieces, piecesByFullLabelling(m));
+  EXPECT_GT(split.pieces[0].front().idx(), 0u);  // face 0 is in the kept half
+}
+
+// A small corner cut off a large grid: the searches stop long before the large part's
+// end (a full labelling would visit all faces).
+TEST(SurfaceMesh, SplitComponentsVisitsInProportionToTheSmallPiece) {
+  const int n = 120;  // 28 800 faces
+  SurfaceMesh m = grid(n);
+  const std::size_t f0 = m.editedFaces().size(), e0 = m.editedEdges().size();
+  cutGrid(m, n, 5, 5);  // a 5 x 5 cell corner (50 faces) and three large parts
+  ComponentScratch scratch;
+  const SplitComponents split = m.splitComponents(seedsSince(m, f0, e0), scratch);
+  ASSERT_EQ(split.count, 4);
+  EXPECT_EQ(split.pieces, piecesByFullLabelling(m));
+  EXPECT_LT(split.facesVisited, m.nFaces() / 2);
+  // Connected after the edit: one component, found without walking it all.
+  SurfaceMesh g = grid(n);
+  const std::size_t g0 = g.editedFaces().size(), h0 = g.editedEdges().size();
+  g.splitFace(Face(1000), g.centroid(Face(1000)));
+  const SplitComponents one = g.splitComponents(seedsSince(g, g0, h0), scratch);
+  EXPECT_EQ(one.count, 1);
+  EXPECT_TRUE(one.pieces.empty());
+  EXPECT_EQ(one.largestFaces, g.nFaces());
+  EXPECT_LT(one.facesVisited, 10u);
+}
+
+// extract() is the old way (copy, delete the rest, drop isolated vertices, compact) at
+// the cost of the part: same elements in the same order, same properties.
+TEST(SurfaceMesh, ExtractEqualsCopyDeleteAndCompact) {
+  const int n = 8;
+  SurfaceMesh m = grid(n);
+  auto vp = m.addVertexProperty<int>("v:tag", 0);
+  auto ep = m.addEdgeProperty<double>("e:w", 0.0);
+  auto fp = m.addFaceProperty<int>("f:kind", 0);
+  for (Vertex v : m.vertices()) vp[v] = static_cast<int>(3 * v.idx() + 1);
+  for (Edge e : m.edges()) ep[e] = 0.5 * e.idx();
+  for (Face f : m.faces()) fp[f] = static_cast<int>(f.idx() % 7);
+  m.splitEdge(m.findEdge(Vertex(10), Vertex(11)), {1.5, 1.0, 0.0});
+  cutGrid(m, n, 3, -1);
+  const auto pieces = piecesByFullLabelling(m);
+  ASSERT_EQ(pieces.size(), 1u);
+  const SurfaceMesh part = m.extract(pieces[0]);
+
+  SurfaceMesh old = m;
+  const Components c = m.connectedComponents();
+  const int label = c.faceLabel[pieces[0][0].idx()];
+  for (Face f : old.faces())
+    if (c.faceLabel[f.idx()] != label) old.deleteFace(f);
+  for (Vertex v : old.vertices())
+    if (old.isIsolated(v)) old.deleteVertex(v);
+  old.garbageCollection();
+
+  EXPECT_VALID(part);
+  ASSERT_EQ(part.verticesSize(), old.verticesSize());
+  ASSERT_EQ(part.edgesSize(), old.edgesSize());
+  ASSERT_EQ(part.facesSize(), old.facesSize());
+  EXPECT_FALSE(part.hasGarbage());
+  const auto pv = part.getVertexProperty<int>("v:tag");
+  const auto ov = old.getVertexProperty<int>("v:tag");
+  for (Vertex v : old.vertices()) {
+    EXPECT_EQ(part.position(v), old.position(v));
+    EXPECT_EQ(part.edges(v), old.edges(v));
+    EXPECT_EQ(pv[v], ov[v]);
+  }
+  const auto pe = part.getEdgeProperty<double>("e:w");
+  const auto oe = old.getEdgeProperty<double>("e:w");
+  for (Edge e : old.edges()) {
+    EXPECT_EQ(part.vertex(e, 0), old.vertex(e, 0));
+    EXPECT_EQ(part.vertex(e, 1), old.vertex(e, 1));
+    EXPECT_EQ(part.face(e, 0), old.face(e, 0));
+    EXPECT_EQ(part.face(e, 1), old.face(e, 1));
+    EXPECT_EQ(pe[e], oe[e]);
+  }
+  const auto pf = part.getFaceProperty<int>("f:kind");
+  const auto of = old.getFaceProperty<int>("f:kind");
+  for (Face f : old.faces()) {
+    EXPECT_EQ(part.vertices(f), old.vertices(f));
+    EXPECT_EQ(part.edges(f), old.edges(f));
+    EXPECT_EQ(pf[f], of[f]);
+  }
+  // It can be edited further.
+  SurfaceMesh edited = part;
+  edited.splitFace(Face(0), edited.centroid(Face(0)));
+  EXPECT_VALID(edited);
+}
+
 }  // namespace
 }  // namespace ld::mesh
