@@ -86,12 +86,27 @@ TraineeProfile traineeProfile(int level, unsigned seed) {
   TraineeProfile p;
   p.seed = seed;
   if (level <= 0) return p;
+  level = std::min(level, 3);
+  // Per novice level 1..3: slower (longer dwells), a larger lateral wander that turns
+  // a little more often, growing fast corrections (more crossings of the line, where
+  // the wander is near it), longer and more pauses, more lifts, a harder and jerkier
+  // pull. Amplitudes grow faster than frequencies, so the cut leaves the band more.
+  struct Row {
+    double speed, wander, scale, fast, fastScale, pauseS;
+  };
+  constexpr Row kRows[] = {
+      {6.5, 1.5, 1.0, 0.1, 1.0, 1.2}, {5.0, 2.8, 1.15, 0.35, 1.25, 1.5}, {3.0, 5.2, 1.3, 1.3, 1.5, 2.0}};
+  const Row& r = kRows[level - 1];
   p.name = "novice" + std::to_string(level);
-  p.speed = 8.0 - 1.0 * level;
+  p.speed = r.speed;
   p.speedWobble = 0.15 * level;
   p.lateralBias = 0.0;
-  p.lateralNoise = 1.5 * level;
+  p.lateralNoise = r.wander;
+  p.wanderScale = r.scale;
+  p.fastNoise = r.fast;
+  p.fastScale = r.fastScale;
   p.pauses = level;
+  p.pauseS = r.pauseS;
   p.lifts = level;
   p.pull = 4.0 + 2.0 * level;
   p.pullNoise = 1.0 * level;
@@ -102,7 +117,9 @@ devices::Trajectory scriptedAttempt(const Task& task, const mesh::SurfaceMesh& m
                                     double rateHz) {
   const PathFrames path(task, m);
   std::mt19937 rng(prof.seed);
-  const Wander lateral(rng, 1.0 / 40.0, 1.0 / 10.0), surge(rng, 0.05, 0.2), depthW(rng, 0.1, 0.4), pullW(rng, 0.2, 0.8);
+  // The same draws at every level (a fixed seed), scaled by the level's frequencies.
+  const Wander lateral(rng, prof.wanderScale / 40.0, prof.wanderScale / 10.0), surge(rng, 0.05, 0.2),
+      depthW(rng, 0.1, 0.4), pullW(rng, 0.2, 0.8), fast(rng, prof.fastScale / 4.0, prof.fastScale / 1.5);
   const double L = path.length();
   const double tApproach = 1.0, tDescend = 0.5;
   const double t0 = tApproach + tDescend;  // cutting starts
@@ -180,7 +197,8 @@ devices::Trajectory scriptedAttempt(const Task& task, const mesh::SurfaceMesh& m
       const double sArc = arc(tauAt(t));
       const Frame f = path.at(sArc);
       const Vector3d side = f.normal.cross(f.tangent).normalized();
-      const double off = prof.lateralBias + prof.lateralNoise * lateral(sArc);  // spatial: mm of wander per mm of path
+      // Spatial: mm of wander per mm of path (a pause stops it; any rate samples the same motion).
+      const double off = prof.lateralBias + prof.lateralNoise * lateral(sArc) + prof.fastNoise * fast(sArc);
       // Height of the elbow above the surface: approach from 5 mm above, cut at -depth,
       // lifts of 3 mm, rise at the end.
       double h = -prof.depth * (1.0 + 0.2 * depthW(t));

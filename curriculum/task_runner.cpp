@@ -109,12 +109,66 @@ class JawTrack {
 // vertex's mass (kp dt² <= m) and the held vertices are made heavier by kp dt² while
 // held (selective mass scaling, as the physics' mass floor does for stiff springs),
 // so the explicit penalty force stays stable at the 1 ms step.
+//
+// Held still (RunOptions::holdUnderBlade): the mesh's positions stay the still tissue
+// the blade and the drawn path see; a vertex property holds the simulated tissue's
+// displacement from it. A physics step swaps the simulated positions in and out (the
+// displacement property holds the still positions meanwhile), so the physics sees
+// the same cuts, springs and held vertices. A vertex a cut adds takes the mean
+// displacement of its neighbours.
 class TissueMotion {
  public:
+  static constexpr const char* kDisplacementProp = "ld:sim_displacement";
+  static constexpr const char* kKnownProp = "ld:sim_displacement_set";
+
   TissueMotion(cutting::CutEngine& engine, const physics::TissueParams& tp, const RunOptions& opt)
-      : engine_(engine), tp_(tp), opt_(opt) {
+      : engine_(engine), tp_(tp), opt_(opt), still_(opt.physics && opt.holdUnderBlade) {
     params_.tissue = tp;
+    if (still_)
+      for (auto& o : engine_.objects()) {
+        mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
+        m.vertexProperty<Eigen::Vector3d>(kDisplacementProp, Eigen::Vector3d::Zero());
+        auto known = m.vertexProperty<std::uint8_t>(kKnownProp, 0);
+        for (mesh::Vertex v : m.vertices()) known[v] = 1;
+      }
   }
+
+  // Vertices added since (by cuts) take their neighbours' mean displacement.
+  void followEdits() {
+    if (!still_) return;
+    for (const auto& o : engine_.objects()) {
+      mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
+      auto u = m.vertexProperty<Eigen::Vector3d>(kDisplacementProp, Eigen::Vector3d::Zero());
+      auto known = m.vertexProperty<std::uint8_t>(kKnownProp, 0);
+      std::vector<mesh::Vertex> fresh;
+      for (mesh::Vertex v : m.vertices())
+        if (!known[v]) fresh.push_back(v);
+      for (int round = 0; round < 4 && !fresh.empty(); ++round) {
+        std::vector<mesh::Vertex> left;
+        for (mesh::Vertex v : fresh) {
+          Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+          int n = 0;
+          for (mesh::Face f : m.faces(v))
+            for (mesh::Vertex w : m.vertices(f))
+              if (w != v && known[w]) {
+                sum += u[w];
+                ++n;
+              }
+          if (n > 0) {
+            u[v] = sum / n;
+            known[v] = 1;
+          } else {
+            left.push_back(v);
+          }
+        }
+        fresh = std::move(left);
+      }
+      for (mesh::Vertex v : fresh) known[v] = 1;  // isolated: not displaced
+    }
+  }
+
+  // The farthest the simulated tissue was from the still one after any step [mm].
+  [[nodiscard]] double maxDisplacement() const { return std::sqrt(maxU2_); }
 
   // Steps every object from `from` to `to` in steps of at most physicsDt.
   void advance(double from, double to, const JawTrack* jaws, PhysicsStats& st) {
@@ -122,6 +176,7 @@ class TissueMotion {
     const int n = std::max(1, static_cast<int>(std::ceil((to - from) / opt_.physicsDt - 1e-9)));
     const double h = (to - from) / n;
     const auto t0 = std::chrono::steady_clock::now();
+    swap(true);
     for (int j = 0; j < n; ++j) {
       const double tj = from + (j + 1) * h;
       for (int hand = 0; hand < 2; ++hand)
@@ -133,6 +188,7 @@ class TissueMotion {
         ++st.steps;
       }
     }
+    swap(false);
     st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
 
@@ -165,7 +221,7 @@ class TissueMotion {
     }
     auto mass = m.getVertexProperty<double>(physics::kMassProp);
     for (mesh::Vertex v : picked) {
-      held_[hand].push_back({object, v, m.position(v) - jaw, m.position(v), m.layoutVersion()});
+      held_[hand].push_back({object, v, simulated(m, v) - jaw, m.position(v), m.layoutVersion()});
       mass[v] += opt_.graspStiffness * opt_.physicsDt * opt_.physicsDt;
     }
     dynamics(object).invalidate();
@@ -241,7 +297,35 @@ class TissueMotion {
     const double mass = m.getVertexProperty<double>(physics::kMassProp)[h.v];
     const double dt2 = opt_.physicsDt * opt_.physicsDt;
     const double kp = std::min(opt_.graspStiffness, mass / dt2);  // a cut may have reset the mass
-    return kp * (jaw + h.offset - m.position(h.v));
+    return kp * (jaw + h.offset - simulated(m, h.v));
+  }
+
+  // Where the physics has the vertex (outside a step: still + displacement).
+  [[nodiscard]] Eigen::Vector3d simulated(const mesh::SurfaceMesh& m, mesh::Vertex v) const {
+    if (!still_ || swapped_) return m.position(v);
+    const auto u = m.getVertexProperty<Eigen::Vector3d>(kDisplacementProp);
+    return u ? Eigen::Vector3d(m.position(v) + u[v]) : m.position(v);
+  }
+
+  // In: positions = simulated, the property = still positions. Out: the reverse.
+  void swap(bool in) {
+    if (!still_ || swapped_ == in) return;
+    for (const auto& o : engine_.objects()) {
+      mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
+      auto u = m.vertexProperty<Eigen::Vector3d>(kDisplacementProp, Eigen::Vector3d::Zero());
+      for (mesh::Vertex v : m.vertices()) {
+        const Eigen::Vector3d x = m.position(v);
+        if (in) {
+          m.position(v) = x + u[v];
+          u[v] = x;
+        } else {
+          m.position(v) = u[v];
+          u[v] = x - u[v];
+          maxU2_ = std::max(maxU2_, u[v].squaredNorm());
+        }
+      }
+    }
+    swapped_ = in;
   }
 
   void applyForces(int hand, const Eigen::Vector3d& jaw) {
@@ -249,13 +333,16 @@ class TissueMotion {
       if (!locate(h)) continue;
       mesh::SurfaceMesh& m = engine_.object(h.object).mesh;
       m.getVertexProperty<Eigen::Vector3d>(physics::kForceProp)[h.v] = spring(h, jaw);
-      h.last = m.position(h.v);
+      // The position locate() compares with outside a step (the still one when held still).
+      h.last = still_ ? m.getVertexProperty<Eigen::Vector3d>(kDisplacementProp)[h.v] : m.position(h.v);
     }
   }
 
   cutting::CutEngine& engine_;
   physics::TissueParams tp_;
   const RunOptions& opt_;
+  bool still_ = false, swapped_ = false;
+  double maxU2_ = 0.0;
   physics::Params params_;
   std::vector<std::pair<int, std::unique_ptr<physics::Dynamics>>> dyn_;
   std::vector<Held> held_[2];
@@ -295,6 +382,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   const physics::TissueParams tp = tissueParams(task.tissue, opt);
   cutting::CutParams cutParams = opt.cut;
   r.physics.on = opt.physics;
+  r.physics.heldStill = opt.physics && opt.holdUnderBlade;
   mesh::SurfaceMesh start = m;
   tagOriginalFaces(start);  // one cut-path piece per original triangle
   if (opt.physics) {
@@ -329,7 +417,10 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
-  auto followEdits = [&] { r.pathReembedded += drawn.followEdits(tissue()); };
+  auto followEdits = [&] {
+    r.pathReembedded += drawn.followEdits(tissue());
+    motion.followEdits();
+  };
   auto feedCut = [&](double t) {
     const Polyline& p = recorder.path();
     for (; fed < p.size(); ++fed) {
@@ -386,7 +477,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     if (opt.physics && s.t > physT) {
       motion.advance(physT, s.t, jaws, r.physics);
       physT = s.t;
-      drawn.refreshWorld(tissue());  // the path moved with the tissue
+      if (!r.physics.heldStill) drawn.refreshWorld(tissue());  // the path moved with the tissue
     }
     live.addTip({s.t, s.hand == Hand::Left ? HandSide::Left : HandSide::Right, s.pose.tip});
     if (s.tool == Tool::Grasper) {
@@ -488,6 +579,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     r.pathMovedMm = std::max(r.pathMovedMm, (r.drawnAsDrawn[i].p - task.path[i].p).norm());
   r.objects = engine.objects().size();
   motion.addStats(r.physics);
+  r.physics.maxDisplacementMm = motion.maxDisplacement();
   return r;
 }
 
@@ -528,8 +620,12 @@ nlohmann::json runJson(const Task& task, const RunResult& r) {
                      {"freed", r.pathFreed},           {"max_moved_mm", r.pathMovedMm}};
   // The model behind the stretch force (README: curriculum).
   if (r.physics.on) {
-    j["stretch_force"]["model"] = "physics";
+    j["stretch_force"]["model"] = r.physics.heldStill
+                                      ? "physics (the cut and the drawn path on the tissue held still under the blade)"
+                                      : "physics";
     j["physics"] = {{"on", true},
+                    {"mode", r.physics.heldStill ? "still" : "on"},
+                    {"max_displacement_mm", r.physics.maxDisplacementMm},
                     {"steps", r.physics.steps},
                     {"ms", r.physics.seconds * 1e3},
                     {"us_per_step", r.physics.steps > 0 ? r.physics.seconds * 1e6 / r.physics.steps : 0.0},
@@ -540,7 +636,7 @@ nlohmann::json runJson(const Task& task, const RunResult& r) {
                     {"held_vertices", r.physics.heldVertices}};
   } else {
     j["stretch_force"]["model"] = "estimate: home stiffness x grasper displacement (--physics off)";
-    j["physics"] = {{"on", false}};
+    j["physics"] = {{"on", false}, {"mode", "off"}};
   }
   return j;
 }

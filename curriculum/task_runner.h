@@ -37,6 +37,13 @@ struct RunOptions {
   // trajectory plays and the grasper force is the sum of its penalty springs. Off:
   // no motion, and the force is the estimate home stiffness x grasper displacement.
   bool physics = true;
+  // With physics: the tissue the blade and the drawn path see is held still (as the
+  // window holds it while the blade is in it), and the physics runs on a displaced
+  // copy of it (the same mesh, cuts and springs, positions = still + displacement)
+  // that gives the grasper's force. The cut then does not move under the blade (the
+  // cutter loses tracks on tissue moving under it, which would count against the
+  // trainee), and the force still feels the cut. `task run` uses this by default.
+  bool holdUnderBlade = false;
   double physicsDt = 1e-3;         // s, the longest step (the workstation's 1 kHz loop)
   double graspStiffness = 1000.0;  // mN/mm, penalty spring per held vertex
   double graspRadius = 1.5;        // mm: vertices this near the grasp point are held
@@ -55,9 +62,11 @@ double balanceHomes(mesh::SurfaceMesh& m, const physics::TissueParams& p);
 
 struct PhysicsStats {
   bool on = false;
-  long steps = 0;              // physics steps (all objects)
-  double seconds = 0.0;        // wall time in physics steps
-  double startResidualMn = 0;  // largest net force at the start (after balancing)
+  bool heldStill = false;        // holdUnderBlade: the cut on the still tissue
+  double maxDisplacementMm = 0;  // held still: farthest the simulated tissue was from it
+  long steps = 0;                // physics steps (all objects)
+  double seconds = 0.0;          // wall time in physics steps
+  double startResidualMn = 0;    // largest net force at the start (after balancing)
   std::uint64_t rejectedSteps = 0, implicitFallbacks = 0;
   int grasps = 0;                // times the grasper took hold
   std::size_t heldVertices = 0;  // vertices held, summed over grasps

@@ -67,7 +67,7 @@ const char* kUsage =
     "  cut --mesh FILE --trajectory CSV [--physics off|on [--active-region off|on]] [--out FILE]\n"
     "  sim bench --scene NAME|FILE --method NAME --dt S --duration S | sim chart --out DIR\n"
     "  metrics deviation --drawn CSV --cut CSV\n"
-    "  task validate FILE | task run --task JSON --trajectory CSV [--physics off|on] [--db URL --trainee NAME]\n"
+    "  task validate FILE | task run --task JSON --trajectory CSV [--physics still|on|off] [--db URL --trainee NAME]\n"
     "  db init|user add|login|attempts|export|backup ...\n";
 
 }  // namespace

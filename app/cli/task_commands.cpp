@@ -1,11 +1,12 @@
 // lapdissect-cli task ...: tasks and curricula.
 //   task validate FILE
-//   task run --task JSON --trajectory CSV [--physics on|off] [--db URL --trainee NAME]   (password on stdin)
-//     --physics on: the tissue moves under the mass-spring physics and the grasper's
-//     stretch force is the force of its penalty springs; off (default): the tissue stays
-//     still and the force is the estimate home stiffness x grasper displacement. Off is
-//     the default while the cutter loses tracks on tissue that moves under the blade
-//     (sim/cutting/README.md): those breaks would count against the trainee.
+//   task run --task JSON --trajectory CSV [--physics still|on|off] [--db URL --trainee NAME]   (password on stdin)
+//     --physics still (default): the grasper's stretch force is the force of its penalty
+//     springs on the simulated (mass-spring) tissue, while the blade and the drawn path
+//     see the tissue held still, as the window holds it while the blade is in it (the
+//     cutter loses tracks on tissue moving under the blade, sim/cutting/README.md, which
+//     would count against the trainee). on: the tissue moves under the blade too. off:
+//     no physics; the force is the estimate home stiffness x grasper displacement.
 //   task script --task JSON --level 0..3 [--seed N] [--rate HZ] --out CSV   (scripted trainee)
 #include <chrono>
 #include <cmath>
@@ -160,11 +161,12 @@ int run(const Args& args) {
   const std::string& taskFile = args.get("task");
   const std::string& trajFile = args.get("trajectory");
   if (args.has("db") != args.has("trainee")) throw CliError(kBadInput, "--db and --trainee go together");
-  const std::string physicsMode = args.get("physics", "off");
-  if (physicsMode != "on" && physicsMode != "off")
-    throw CliError(kBadInput, "option --physics: expected 'on' or 'off', found '" + physicsMode + "'");
+  const std::string physicsMode = args.get("physics", "still");
+  if (physicsMode != "still" && physicsMode != "on" && physicsMode != "off")
+    throw CliError(kBadInput, "option --physics: expected 'still', 'on' or 'off', found '" + physicsMode + "'");
   RunOptions options;
-  options.physics = physicsMode == "on";
+  options.physics = physicsMode != "off";
+  options.holdUnderBlade = physicsMode == "still";
   const auto loaded = loadTaskAndModel(taskFile);
   const Task& task = loaded.first;
   const mesh::SurfaceMesh& m = loaded.second;

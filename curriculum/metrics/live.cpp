@@ -8,7 +8,7 @@
 namespace ld::curriculum {
 namespace {
 
-constexpr std::size_t kWindow = 32;  // drawn segments searched ahead for the progress point
+constexpr std::size_t kWindow = 32;  // drawn segments searched either way for the progress point
 
 std::int64_t key(std::int64_t cx, std::int64_t cy) {
   return static_cast<std::int64_t>((static_cast<std::uint64_t>(cx + (1LL << 31)) << 32) ^
@@ -25,15 +25,19 @@ double meanPositive(double u0, double u1) {
 
 }  // namespace
 
-LiveDeviation::LiveDeviation(const Polyline& drawn, double cellMm, std::size_t maxCells)
-    : d_(joinedPoints(drawn)), h_(cellMm > 0.0 ? cellMm : kCellMm), maxCells_(maxCells) {}
+LiveDeviation::LiveDeviation(const Polyline& drawn, double cellMm, std::size_t maxCells, std::size_t maxPieces)
+    : d_(joinedPoints(drawn)), h_(cellMm > 0.0 ? cellMm : kCellMm), maxCells_(maxCells), maxPieces_(maxPieces) {
+  // Room for a long attempt's cells up front: a rehash in the middle of it would cost
+  // one cut point time proportional to the attempt so far.
+  for (PlaneGrid& g : planes_) g.cells.reserve(1u << 15);
+}
 
 Eigen::Vector3d LiveDeviation::drawnPoint(std::size_t seg, double u) const {
   if (d_.size() < 2) return d_.empty() ? Eigen::Vector3d::Zero() : d_[0];
   return d_[seg] + u * (d_[seg + 1] - d_[seg]);
 }
 
-Eigen::Vector3d LiveDeviation::closestAhead(const Eigen::Vector3d& p, std::size_t& seg, double& u) const {
+Eigen::Vector3d LiveDeviation::closestNear(const Eigen::Vector3d& p, std::size_t& seg, double& u) const {
   if (d_.size() < 2) {
     seg = 0;
     u = 0.0;
@@ -42,12 +46,11 @@ Eigen::Vector3d LiveDeviation::closestAhead(const Eigen::Vector3d& p, std::size_
   double best = std::numeric_limits<double>::infinity();
   std::size_t bestSeg = seg;
   double bestU = u;
-  const std::size_t last = std::min(d_.size() - 2, seg + kWindow);
-  for (std::size_t i = seg; i <= last; ++i) {
+  const std::size_t last = std::min(d_.size() - 2, seg + kWindow), first = seg > kWindow ? seg - kWindow : 0;
+  for (std::size_t i = first; i <= last; ++i) {
     const Eigen::Vector3d a = d_[i], ab = d_[i + 1] - d_[i];
     const double l2 = ab.squaredNorm();
-    double t = l2 > 0.0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
-    if (i == seg) t = std::max(t, u);
+    const double t = l2 > 0.0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
     const double dist = (a + t * ab - p).squaredNorm();
     if (dist < best) {
       best = dist;
@@ -67,16 +70,20 @@ void LiveDeviation::addCutPoint(const Eigen::Vector3d& p) {
     started_ = true;
     seg_ = 0;
     u_ = 0.0;
-    p_ = closestAhead(p, seg_, u_);
+    p_ = closestNear(p, seg_, u_);
     for (std::size_t i = 0; i <= seg_ && i < d_.size(); ++i) poly.push_back(d_[i]);
     poly.push_back(p_);
     poly.push_back(p);
   } else {
     std::size_t seg = seg_;
     double u = u_;
-    const Eigen::Vector3d pNew = closestAhead(p, seg, u);
+    const Eigen::Vector3d pNew = closestNear(p, seg, u);
+    // The drawn path from the old progress point to the new one, forward or back.
     poly.push_back(p_);
-    for (std::size_t i = seg_ + 1; i <= seg; ++i) poly.push_back(d_[i]);
+    if (seg >= seg_)
+      for (std::size_t i = seg_ + 1; i <= seg; ++i) poly.push_back(d_[i]);
+    else
+      for (std::size_t i = seg_; i > seg; --i) poly.push_back(d_[i]);
     poly.push_back(pNew);
     poly.push_back(p);
     poly.push_back(lastCut_);
@@ -160,13 +167,23 @@ double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d
       }
     }
   }
-  // Q's edges, clipped to the cells they pass through, join those cells' pieces.
-  g.clipped.clear();
+  ++update_;
   g.dirty.clear();
+  for (std::int64_t i = 0; i < nc; ++i)
+    for (std::int64_t j = 0; j < nr; ++j) {
+      const double dv = acc[static_cast<std::size_t>(i * nr + j)];
+      if (dv == 0.0) continue;
+      g.cells[key(i0 + i, j0 + j)].integral += dv;
+      g.dirty.emplace_back(i0 + i, j0 + j);
+    }
+  // Q's edges, clipped to the cells they pass through, join those cells' pieces
+  // (a refined cell takes Q's edges into its sub-cells below instead).
+  g.clipped.clear();
   for (std::size_t k = 0; k < n; ++k) clipEdge(loop[k], loop[(k + 1) % n], g);
   for (const auto& c : g.clipped) {
     Cell& into = g.cells[key(c.i, c.j)];
-    if (into.coarse) continue;
+    g.dirty.emplace_back(c.i, c.j);
+    if (!into.sub.empty()) continue;
     auto& pieces = into.pieces;
     auto it = std::find_if(pieces.begin(), pieces.end(),
                            [&](const Piece& x) { return x.a == c.piece.a && x.b == c.piece.b; });
@@ -176,31 +193,73 @@ double LiveDeviation::addToPlane(PlaneGrid& g, const std::vector<Eigen::Vector2d
       *it = pieces.back();  // a piece and its reverse cancel
       pieces.pop_back();
     }
-    if (pieces.size() > kMaxPieces) {
-      into.coarse = true;
-      pieces.clear();
-      pieces.shrink_to_fit();
-      exact_ = false;
-    }
-    g.dirty.emplace_back(c.i, c.j);
+    into.histOk = false;
   }
-  for (std::int64_t i = 0; i < nc; ++i)
-    for (std::int64_t j = 0; j < nr; ++j) {
-      const double dv = acc[static_cast<std::size_t>(i * nr + j)];
-      if (dv == 0.0) continue;
-      g.cells[key(i0 + i, j0 + j)].integral += dv;
-      g.dirty.emplace_back(i0 + i, j0 + j);
-    }
   std::sort(g.dirty.begin(), g.dirty.end());
   g.dirty.erase(std::unique(g.dirty.begin(), g.dirty.end()), g.dirty.end());
   double change = 0.0;
   for (const auto& [i, j] : g.dirty) {
     Cell& c = g.cells[key(i, j)];
-    const double a = c.pieces.empty() ? std::abs(c.integral) : cellAbs(c, i, j);
+    if (c.sub.empty() && c.pieces.size() > maxPieces_) refine(c, i, j);  // already holds Q
+    double a = 0.0;
+    if (!c.sub.empty()) {
+      if (c.refinedAt != update_)
+        for (std::size_t k = 0; k < n; ++k) rasterAdd({loop[k], loop[(k + 1) % n], 1}, i, j, c.sub);
+      for (double v : c.sub) a += std::abs(v);
+    } else {
+      a = c.pieces.empty() ? std::abs(c.integral) : cellAbs(c, i, j);
+    }
     change += a - c.abs;
     c.abs = a;
   }
   return change;
+}
+
+void LiveDeviation::refine(Cell& c, std::int64_t i, std::int64_t j) {
+  std::vector<WSeg> segs;
+  std::vector<char> inside;
+  const double base = std::round((c.integral - 0.5 * closePieces(c, i, j, segs, inside)) / (h_ * h_));
+  const double hs = h_ / kSub;
+  c.sub.assign(static_cast<std::size_t>(kSub * kSub), base * hs * hs);
+  for (const WSeg& s : segs) rasterAdd(s, i, j, c.sub);
+  c.pieces.clear();
+  c.pieces.shrink_to_fit();
+  c.hist.clear();
+  c.hist.shrink_to_fit();
+  c.refinedAt = update_;
+  ++refined_;
+  exact_ = false;
+}
+
+void LiveDeviation::rasterAdd(const WSeg& s, std::int64_t i, std::int64_t j, std::vector<double>& sub) const {
+  // The cells' formula on the sub-grid: sub-cell (c, r) gets -sum over edges of the
+  // integral along x of clamp(y - y_r, 0, hs); edges below the cell give nothing.
+  const Eigen::Vector2d& p = s.a;
+  const Eigen::Vector2d& q = s.b;
+  if (p.x() == q.x() || s.w == 0) return;
+  const double xa = static_cast<double>(i) * h_, xb = static_cast<double>(i + 1) * h_;
+  const double ya = static_cast<double>(j) * h_, hs = h_ / kSub;
+  const double xl = std::max(std::min(p.x(), q.x()), xa), xr = std::min(std::max(p.x(), q.x()), xb);
+  if (!(xr > xl)) return;
+  const double slope = (q.y() - p.y()) / (q.x() - p.x());
+  const auto yAt = [&](double x) { return p.y() + slope * (x - p.x()); };
+  if (std::max(yAt(xl), yAt(xr)) <= ya) return;
+  const double sign = (q.x() > p.x() ? 1.0 : -1.0) * s.w;
+  const auto col = [&](double x) { return std::clamp(static_cast<int>(std::floor((x - xa) / hs)), 0, kSub - 1); };
+  for (int c = col(xl); c <= col(xr); ++c) {
+    const double xA = std::max(xl, xa + c * hs), xB = std::min(xr, c + 1 == kSub ? xb : xa + (c + 1) * hs);
+    if (!(xB > xA)) continue;
+    const double dx = sign * (xB - xA);
+    const double y0 = yAt(xA), y1 = yAt(xB);
+    const double ymin = std::min(y0, y1), ymax = std::max(y0, y1);
+    double* column = &sub[static_cast<std::size_t>(c * kSub)];
+    for (int r = 0; r < kSub; ++r) {
+      const double yr = ya + r * hs;
+      if (yr >= ymax) break;
+      const double f = yr + hs <= ymin ? hs : meanPositive(y0 - yr, y1 - yr) - meanPositive(y0 - yr - hs, y1 - yr - hs);
+      column[r] -= dx * f;
+    }
+  }
 }
 
 void LiveDeviation::clipEdge(const Eigen::Vector2d& p, const Eigen::Vector2d& q, PlaneGrid& g) const {
@@ -236,17 +295,15 @@ void LiveDeviation::clipEdge(const Eigen::Vector2d& p, const Eigen::Vector2d& q,
   }
 }
 
-double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) const {
+double LiveDeviation::closePieces(const Cell& c, std::int64_t i, std::int64_t j, std::vector<WSeg>& segs,
+                                  std::vector<char>& inside) const {
   // The pieces, closed along the cell's border: every end on the border runs back
   // along it to the corner (xa, ya). Inside the cell w then is this closed set's
   // winding number plus a whole number B, which the cell's integral gives.
   const double xa = static_cast<double>(i) * h_, xb = xa + h_, ya = static_cast<double>(j) * h_, yb = ya + h_;
   const Eigen::Vector2d corner[4] = {{xa, ya}, {xb, ya}, {xb, yb}, {xa, yb}};
-  struct WSeg {
-    Eigen::Vector2d a, b;
-    int w;
-  };
-  std::vector<WSeg> segs;
+  segs.clear();
+  inside.clear();
   segs.reserve(c.pieces.size() * 4);
   const auto onBorder = [&](const Eigen::Vector2d& p) {
     return p.y() == ya || p.x() == xb || p.y() == yb || p.x() == xa;
@@ -265,10 +322,9 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
       }
     segs.push_back({cur, corner[0], w});
   };
-  std::vector<char> inside;  // segs[i] is a piece (not a closing run along the border)
   for (const Piece& pc : c.pieces) {
     segs.push_back({pc.a, pc.b, pc.count});
-    inside.resize(segs.size(), 1);
+    inside.resize(segs.size(), 1);  // segs[i] is a piece (not a closing run along the border)
     if (onBorder(pc.b)) toCorner(pc.b, pc.count);
     if (onBorder(pc.a)) toCorner(pc.a, -pc.count);
     inside.resize(segs.size(), 0);
@@ -279,9 +335,38 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
     const Eigen::Vector2d u = s.a - corner[0], v = s.b - corner[0];
     twice += s.w * (u.x() * v.y() - u.y() * v.x());
   }
-  const double base = std::round((c.integral - 0.5 * twice) / (h_ * h_));
+  return twice;
+}
+
+double LiveDeviation::cellAbs(Cell& c, std::int64_t i, std::int64_t j) const {
+  if (!c.histOk) buildHistogram(c, i, j);
+  // ∫|w| = sum over the levels of the closed set of area x |level + B|.
+  const double base = std::round((c.integral - 0.5 * c.twice) / (h_ * h_));
+  double a = 0.0;
+  for (const auto& [w, area] : c.hist) a += area * std::abs(w + base);
+  return a;
+}
+
+void LiveDeviation::buildHistogram(Cell& c, std::int64_t i, std::int64_t j) const {
+  // The area of each level of the closed set's winding number inside the cell (only
+  // the pieces move it; a change of the integral alone moves B, not the levels).
+  const double xa = static_cast<double>(i) * h_, xb = xa + h_, ya = static_cast<double>(j) * h_, yb = ya + h_;
+  thread_local std::vector<WSeg> segs;
+  thread_local std::vector<char> inside;
+  c.twice = closePieces(c, i, j, segs, inside);
+  c.hist.clear();
+  const auto addLevel = [&](int w, double area) {
+    if (!(area > 0.0)) return;
+    for (auto& [lw, la] : c.hist)
+      if (lw == w) {
+        la += area;
+        return;
+      }
+    c.hist.emplace_back(w, area);
+  };
   // Slab sweep (as absWindingArea): between neighbouring edges w is constant.
-  std::vector<double> xs{xa, xb};
+  thread_local std::vector<double> xs;
+  xs.assign({xa, xb});
   for (const WSeg& s : segs) {
     xs.push_back(std::clamp(s.a.x(), xa, xb));
     xs.push_back(std::clamp(s.b.x(), xa, xb));
@@ -304,8 +389,7 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
     double ym, y0, y1;
     int w;
   };
-  std::vector<Slot> slots;
-  double area = 0.0;
+  thread_local std::vector<Slot> slots;
   for (std::size_t k = 0; k + 1 < xs.size(); ++k) {
     const double x0 = xs[k], x1 = xs[k + 1];
     if (!(x1 > x0)) continue;
@@ -321,17 +405,16 @@ double LiveDeviation::cellAbs(const Cell& c, std::int64_t i, std::int64_t j) con
       slots.push_back({0.5 * (y0 + y1), y0, y1, right ? s.w : -s.w});
     }
     std::sort(slots.begin(), slots.end(), [](const Slot& p, const Slot& q) { return p.ym < q.ym; });
-    double w = base, y0 = ya, y1 = ya, sum = 0.0;
+    int w = 0;
+    double y0 = ya, y1 = ya;
     for (const Slot& s : slots) {
-      sum += std::abs(w) * ((s.y0 - y0) + (s.y1 - y1));
+      addLevel(w, 0.5 * ((s.y0 - y0) + (s.y1 - y1)) * (x1 - x0));
       w += s.w;
       y0 = s.y0;
       y1 = s.y1;
     }
-    sum += std::abs(w) * ((yb - y0) + (yb - y1));
-    area += 0.5 * sum * (x1 - x0);
+    addLevel(w, 0.5 * ((yb - y0) + (yb - y1)) * (x1 - x0));
   }
-  return area;
 }
 
 // ---------------------------------------------------------------------------

@@ -36,50 +36,62 @@ const Loaded& load(const std::string& id) {
 // (physics off): under physics the cut's walls retract and the cutter's tracks lose
 // the moving groove now and then (walk failures), which is the cutting engine's
 // matter, not the metrics'. PhysicsGraspForce below checks the physics run.
-RunResult attempt(const std::string& id, int level, double hz, unsigned seed = 3, bool physics = false) {
+RunResult attempt(const std::string& id, int level, double hz, unsigned seed = 3, bool physics = false,
+                  bool still = false) {
   const Loaded& l = load(id);
   RunOptions o;
   o.physics = physics;
+  o.holdUnderBlade = still;
   return runTask(l.task, l.mesh, scriptedAttempt(l.task, l.mesh, traineeProfile(level, seed), hz), o);
 }
 
-TEST(Validity, MetricsWorsenAsNoiseGrowsAndTheScoreRanks) {
-  for (const char* id : {"slab-s-curve", "organ-fold"}) {
-    std::vector<RunResult> r;
-    for (int level = 0; level <= 3; ++level) r.push_back(attempt(id, level, 250));
-    EXPECT_TRUE(r[0].assessment.passed) << id << ": "
-                                        << (r[0].assessment.failures.empty() ? "" : r[0].assessment.failures[0]);
-    EXPECT_EQ(r[0].metrics.contactBreaks, 0) << id;
-    EXPECT_EQ(r[0].metrics.pathBreaks, 0) << id;
-    for (int k = 1; k <= 3; ++k) {
-      const Metrics& a = r[k - 1].metrics;
-      const Metrics& b = r[k].metrics;
-      SCOPED_TRACE(std::string(id) + " level " + std::to_string(k));
-      EXPECT_GT(b.deviation.total(), a.deviation.total());
-      EXPECT_GT(b.cutDistanceMeanMm, a.cutDistanceMeanMm);
-      EXPECT_GT(b.cutDistanceMaxMm, a.cutDistanceMaxMm);
-      EXPECT_LE(b.bandFraction, a.bandFraction + 1e-12);
-      EXPECT_EQ(b.contactBreaks, k);  // one lift per level
-      EXPECT_GT(b.pathBreaks, 0);     // the wander crosses the line
-      EXPECT_GT(b.totalTimeS, a.totalTimeS);
-      EXPECT_GT(b.contact.meanS, a.contact.meanS);
-      EXPECT_GT(b.contact.maxS, r[0].metrics.contact.maxS);  // pauses make long dwells
-      EXPECT_GT(b.stretchMaxN, a.stretchMaxN);
-      EXPECT_GT(b.pathLengthRightMm, a.pathLengthRightMm);
-      EXPECT_GT(b.pathLengthLeftMm, a.pathLengthLeftMm);
-      EXPECT_LT(r[k].assessment.score, r[k - 1].assessment.score);
-      EXPECT_FALSE(r[k].assessment.passed);
+const char* const kBundled[] = {"slab-straight-line", "slab-gentle-curve", "slab-s-curve",
+                                "slab-circle-cutout", "organ-curve",       "organ-fold"};
+
+TEST(Validity, EveryMetricWorsensAsNoiseGrowsOnEveryBundledTask) {
+  // Levels 0 (expert) to 3, two fixed seeds (1: the closing note's table), every task.
+  for (unsigned seed : {1u, 3u})
+    for (const char* id : kBundled) {
+      std::vector<RunResult> r;
+      for (int level = 0; level <= 3; ++level) r.push_back(attempt(id, level, 250, seed));
+      SCOPED_TRACE(std::string(id) + " seed " + std::to_string(seed));
+      EXPECT_TRUE(r[0].assessment.passed) << (r[0].assessment.failures.empty() ? "" : r[0].assessment.failures[0]);
+      EXPECT_EQ(r[0].metrics.contactBreaks, 0);
+      EXPECT_EQ(r[0].metrics.pathBreaks, 0);
+      for (int k = 1; k <= 3; ++k) {
+        const Metrics& a = r[k - 1].metrics;
+        const Metrics& b = r[k].metrics;
+        SCOPED_TRACE("level " + std::to_string(k));
+        EXPECT_GT(b.deviation.total(), a.deviation.total());
+        EXPECT_GT(b.cutDistanceMeanMm, a.cutDistanceMeanMm);
+        EXPECT_GT(b.cutDistanceMaxMm, a.cutDistanceMaxMm);
+        // Band: both levels often cut nearly all of the path within the band; a lift
+        // falling elsewhere moves that by under 1 % of the path (not meaningful).
+        EXPECT_LE(b.bandFraction, a.bandFraction + 0.01);
+        EXPECT_EQ(b.contactBreaks, k);          // one lift per level
+        EXPECT_GT(b.pathBreaks, a.pathBreaks);  // larger, faster wander and fast corrections cross more often
+        EXPECT_GT(b.totalTimeS, a.totalTimeS);
+        EXPECT_GT(b.contact.meanS, a.contact.meanS);  // slower, and pauses
+        EXPECT_GT(b.contact.maxS, a.contact.maxS);
+        EXPECT_GT(b.stretchMeanN, a.stretchMeanN);
+        EXPECT_GT(b.stretchMaxN, a.stretchMaxN);
+        EXPECT_GT(b.pathLengthRightMm, a.pathLengthRightMm);
+        EXPECT_GT(b.pathLengthLeftMm, a.pathLengthLeftMm);
+        EXPECT_LT(r[k].assessment.score, r[k - 1].assessment.score);  // the score ranks them
+        EXPECT_FALSE(r[k].assessment.passed);                         // every novice fails
+      }
+      EXPECT_LT(r[3].metrics.bandFraction, r[1].metrics.bandFraction);
+      EXPECT_LT(r[1].metrics.bandFraction, r[0].metrics.bandFraction);
     }
-    EXPECT_LT(r[3].metrics.bandFraction, r[0].metrics.bandFraction);
-  }
 }
 
 TEST(Validity, ResamplingChangesNoMetricByMoreThanOnePercent) {
-  for (int level : {0, 2}) {
-    const RunResult base = attempt("slab-s-curve", level, 1000);
+  for (const auto& [id, level] : std::vector<std::pair<const char*, int>>{
+           {"slab-s-curve", 0}, {"slab-s-curve", 1}, {"slab-s-curve", 2}, {"slab-s-curve", 3}}) {
+    const RunResult base = attempt(id, level, 1000);
     for (double hz : {100.0, 250.0}) {
-      const RunResult r = attempt("slab-s-curve", level, hz);
-      SCOPED_TRACE("level " + std::to_string(level) + " at " + std::to_string(int(hz)) + " Hz");
+      const RunResult r = attempt(id, level, hz);
+      SCOPED_TRACE(std::string(id) + " level " + std::to_string(level) + " at " + std::to_string(int(hz)) + " Hz");
       const Metrics& a = base.metrics;
       const Metrics& b = r.metrics;
       auto close = [](double x, double y, double floor) { return test::near(x, y, floor, 0.01); };
@@ -112,8 +124,10 @@ TEST(Validity, LiveSeriesEndsAtTheBatchValues) {
       test::near(deviation(load("slab-straight-line").task.path, r.cut).total(), r.metrics.deviation.total(), 1e-9));
   // The live deviation grows over the attempt (more path compared as the cut proceeds).
   EXPECT_LT(r.series[r.series.size() / 4].m.deviation.total(), last.deviation.total());
-  // The drawn path was broken where the cut crossed it.
-  EXPECT_EQ(pieces(r.drawn).size(), static_cast<std::size_t>(1 + r.metrics.pathBreaks));
+  // The drawn path was broken where the cut crossed it (two crossings of one drawn
+  // segment break it once).
+  EXPECT_LE(pieces(r.drawn).size(), static_cast<std::size_t>(1 + r.metrics.pathBreaks));
+  EXPECT_GT(pieces(r.drawn).size(), 1u);
 }
 
 TEST(Validity, PhysicsGraspForceRanksAndLeavesTheCutNearlyUnchanged) {
@@ -153,6 +167,41 @@ TEST(Validity, PhysicsGraspForceRanksAndLeavesTheCutNearlyUnchanged) {
   EXPECT_TRUE(test::near(on.metrics.bandFraction, off.metrics.bandFraction, 0.01));
   EXPECT_EQ(on.metrics.contactBreaks, off.metrics.contactBreaks);
   EXPECT_TRUE(test::near(on.metrics.contact.totalS, off.metrics.contact.totalS, 0.0, 0.02));
+}
+
+TEST(Validity, HeldStillPhysicsGivesTheGraspForceAndTheStillCut) {
+  // task run's default: the grasper's force from the simulated tissue, the cut and the
+  // drawn path on the tissue held still. Every other metric is the still run's exactly
+  // (the tissue under the blade is the same), while the force is the physics one: far
+  // above the estimate, and larger for the novice. The expert passes, the novice fails.
+  for (const char* id : {"slab-straight-line"}) {
+    SCOPED_TRACE(id);
+    const RunResult still = attempt(id, 0, 250, 1, true, true);
+    const RunResult off = attempt(id, 0, 250, 1, false);
+    const RunResult on = attempt(id, 0, 250, 1, true, false);
+    const RunResult novice = attempt(id, 2, 250, 1, true, true);
+    ASSERT_TRUE(still.physics.on);
+    ASSERT_TRUE(still.physics.heldStill);
+    EXPECT_EQ(still.physics.grasps, 1);
+    EXPECT_EQ(still.physics.implicitFallbacks, 0u);
+    EXPECT_GT(still.physics.steps, 1000);
+    EXPECT_GT(still.physics.maxDisplacementMm, 2.0);  // the simulated tissue was pulled (4 mm)
+    EXPECT_DOUBLE_EQ(still.metrics.deviation.total(), off.metrics.deviation.total());
+    EXPECT_EQ(still.metrics.pathBreaks, off.metrics.pathBreaks);
+    EXPECT_EQ(still.metrics.contactBreaks, off.metrics.contactBreaks);
+    EXPECT_DOUBLE_EQ(still.metrics.bandFraction, off.metrics.bandFraction);
+    EXPECT_DOUBLE_EQ(still.metrics.contact.meanS, off.metrics.contact.meanS);
+    EXPECT_EQ(still.cut.size(), off.cut.size());
+    EXPECT_EQ(still.cutStats.walkFailures, 0u);
+    EXPECT_DOUBLE_EQ(still.pathMovedMm, off.pathMovedMm);
+    EXPECT_GT(still.metrics.stretchMaxN, 5 * off.metrics.stretchMaxN);
+    // Close to the force with the tissue moving under the blade too (same grasp and pull).
+    EXPECT_TRUE(test::near(still.metrics.stretchMeanN, on.metrics.stretchMeanN, 0.0, 0.25));
+    EXPECT_LT(still.metrics.stretchMeanN, novice.metrics.stretchMeanN);
+    EXPECT_LT(still.metrics.stretchMaxN, novice.metrics.stretchMaxN);
+    EXPECT_TRUE(still.assessment.passed) << (still.assessment.failures.empty() ? "" : still.assessment.failures[0]);
+    EXPECT_FALSE(novice.assessment.passed);
+  }
 }
 
 }  // namespace

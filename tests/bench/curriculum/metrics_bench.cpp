@@ -44,19 +44,23 @@ BENCHMARK(BM_DeviationBatch)->RangeMultiplier(4)->Range(64, 4096)->Complexity();
 
 // One more cut point after `prior` points: the live cost must not grow with prior
 // (the drawn path is the same for every prior: a task's path does not grow with
-// the attempt; the cut goes along it at 0.25 mm steps, then back and forth over its
-// last 20 mm, as a slow trainee working one place would).
+// the attempt). Case 0, a normal cut: along the path at 8 µm steps (8 mm/s at 1 kHz).
+// Case 1, back and forth: 20 mm along the path at 0.25 mm steps, then back and forth
+// over those 20 mm, as a trainee working one place would (the cells there collect a
+// piece of cut per pass).
 struct LiveFixture {
   static constexpr double kLength = 100.0;
+  explicit LiveFixture(int c) : mode(c) {}
+  int mode;
   Polyline d = drawnLine(50, kLength);
   std::mt19937 rng{2};
   int k = 0;
   V next() {
-    const double step = 0.25, pass = kLength / step;
-    double x = step * k;
-    if (k >= pass) {  // triangle wave over [80, 100]
-      const double u = std::fmod(step * (k - pass), 40.0);
-      x = u < 20.0 ? kLength - u : kLength - 40.0 + u;
+    double x = 0.008 * k;
+    if (mode == 1) {
+      const double step = 0.25, span = 20.0;
+      const double u = std::fmod(step * k, 2 * span);
+      x = u < span ? u : 2 * span - u;
     }
     ++k;
     return cutPoint(x, rng);
@@ -65,24 +69,33 @@ struct LiveFixture {
 
 void BM_LiveDeviationPerPoint(benchmark::State& state) {
   const int prior = static_cast<int>(state.range(0));
-  LiveFixture f;
+  LiveFixture f(static_cast<int>(state.range(1)));
   LiveDeviation live(f.d);
   for (int i = 0; i < prior; ++i) live.addCutPoint(f.next());
   for (auto _ : state) live.addCutPoint(f.next());
   state.counters["prior"] = prior;
+  state.counters["refined_cells"] = static_cast<double>(live.refinedCells());
 }
-BENCHMARK(BM_LiveDeviationPerPoint)->Arg(100)->Arg(1000)->Arg(10000)->Iterations(2000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LiveDeviationPerPoint)
+    ->ArgsProduct({{100, 1000, 10000}, {0, 1}})
+    ->ArgNames({"prior", "backforth"})
+    ->Iterations(2000)
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_LiveMetricsPerPoint(benchmark::State& state) {
   const int prior = static_cast<int>(state.range(0));
-  LiveFixture f;
+  LiveFixture f(static_cast<int>(state.range(1)));
   LiveMetrics live(f.d);
   live.start(0);
   for (int i = 0; i < prior; ++i) live.addCutPoint(f.k * 1e-3, f.next());
   for (auto _ : state) live.addCutPoint(f.k * 1e-3, f.next());
   state.counters["prior"] = prior;
 }
-BENCHMARK(BM_LiveMetricsPerPoint)->Arg(100)->Arg(1000)->Arg(10000)->Iterations(2000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LiveMetricsPerPoint)
+    ->ArgsProduct({{100, 1000, 10000}, {0, 1}})
+    ->ArgNames({"prior", "backforth"})
+    ->Iterations(2000)
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_HeadlessRun(benchmark::State& state) {
   const std::string file = std::string(LD_RESOURCES_DIR) + "/tasks/slab-s-curve.json";
