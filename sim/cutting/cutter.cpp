@@ -1799,11 +1799,11 @@ struct CutEngine::Impl {
         return;
       }
       ++stats.walkFailures;
-      // Could not join the layers: both go on as independent cuts from sB.
-      a.partner = b.partner = -1;
-      a.tip = sB;
-      a.chain.clear();
-      for (Vertex x : path) extend(a, x, h0.depth);
+      // Could not join the layers around the edge (e.g. a side the tissue's motion made
+      // wavy): the path found is not the cut's (opening along it made long wrong cuts),
+      // so nothing opens there; the two crossings go on as a pierce through both layers.
+      a.alive = b.alive = false;
+      startTunnel(hs, h0, h1);
       return;
     }
     // No edge the blade came in over (e.g. it went in along itself): a pierce.
