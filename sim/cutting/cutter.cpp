@@ -1810,6 +1810,11 @@ struct CutEngine::Impl {
     startTunnel(hs, h0, h1);
   }
 
+  // Material thinner than this between two crossings of one edge is a fold of the
+  // surface the blade grazes (a cut's lip curled by the tissue's motion), not two layers
+  // to join with side walls.
+  double foldThickness() const { return 10.0 * p.snapDistance; }
+
   // Two layers pierced in the middle of the object: each gets its own track; they
   // are paired and join through a tunnel once both paths can open.
   void startTunnel(HandState& hs, const Hit& h0, const Hit& h1) {
@@ -2206,6 +2211,7 @@ struct CutEngine::Impl {
         const bool between = nb < i ? (o.dir > 0 && h.dir < 0) : (h.dir > 0 && o.dir < 0);
         const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
         if (!between || !t.alive || t.partner >= 0 || t.tunnel) continue;
+        if ((h.point - o.point).norm() < foldThickness()) continue;  // a fold of the surface, not the bottom
         Deep d{i, trackOfHit[nb], Vec3::Zero(), Vec3::Zero(), 2.0};
         if (prevSegs.size() == segs.size()) {
           // The end of the edge beyond the new crossing is the one that went through.
