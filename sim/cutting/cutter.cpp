@@ -2301,8 +2301,16 @@ struct CutEngine::Impl {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
       std::size_t j = i + 1;
+      // Two new crossings close together beside a cut this edge is making: the blade
+      // grazes a fold of the surface (a lip the moving tissue curled), not two layers.
+      auto besideCut = [&](const Hit& x) {
+        for (std::size_t k = 0; k < hits.size(); ++k)
+          if (trackOfHit[k] >= 0 && hits[k].object == x.object && hits[k].segment == x.segment) return true;
+        return false;
+      };
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
-          hits[j].dir < 0 && closedObject(h.object)) {
+          hits[j].dir < 0 && closedObject(h.object) &&
+          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h))) {
         hits[i].used = hits[j].used = true;
         // Upper layer (h0) is the one nearer the edge's far end b.
         {
