@@ -1,6 +1,7 @@
 #include "sim/cutting/cutter.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -127,6 +128,14 @@ class VertexSet {
   std::size_t size_ = 0;
 };
 
+// A point of the tissue: the corners of the face holding it and its barycentric
+// weights there. It moves with the tissue when physics moves the vertices.
+struct Anchor {
+  std::array<Vertex, 3> corners{};
+  Vec3 weights = Vec3::Zero();
+  bool valid = false;
+};
+
 // One layer crossing followed through a stroke.
 struct Track {
   int id = 0;
@@ -160,6 +169,11 @@ struct Track {
   // open, then openTunnel joins the layers (side walls; the object gets a hole).
   bool tunnel = false;
   VertexSet visited;  // path vertices, their copies and this cut's wall apexes
+  // start and pending as points of the tissue (set at the end of every sample), and the
+  // object's motion count they were taken at: a moved object moves them too.
+  Anchor startAt, pendingAt;
+  long anchoredAt = -1;
+  Vertex prevTip;  // the path vertex before tip (the cut runs from it to tip)
 };
 
 struct HandState {
@@ -194,6 +208,7 @@ struct CutEngine::Impl {
   std::vector<collision::TriangleBvh> bvhs;
   std::vector<char> moved;                            // every vertex may have moved
   std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
+  long motionCount = 0;  // object()/verticesMoved calls: tracks re-anchor to the tissue
   std::vector<collision::SurfaceHit> scratchHits;
   std::vector<Face> scratchFaces;
   int nextId = 0;
@@ -559,6 +574,7 @@ struct CutEngine::Impl {
     const Vertex v = tr.tip;
     if (N == v) return true;
     Track* P = trackById(tr.partner);
+    tr.prevTip = v;
     auto advanceTo = [&](std::vector<Vertex> chain) {
       tr.chain = std::move(chain);
       tr.tip = N;
@@ -609,7 +625,7 @@ struct CutEngine::Impl {
         ids.insert(ids.end(), chain.begin(), chain.end());
         for (std::size_t i = chain.size() - 1; i-- > 0;) ids.push_back(chain[i]);
         ids.push_back(v);
-        qFan = loopQuality(m, ids);
+        qFan = fanQuality(m, ids);
       }
       const bool fanOk = qFan >= thr && !(chain.size() == 1 && m.findEdge(N, o).isValid());
       double qApex = -1.0;
@@ -657,6 +673,11 @@ struct CutEngine::Impl {
         else
           fill = Fill::Defer;
       }
+      if (dbg() && paired)
+        std::cerr << "pair step track " << tr.id << " chain " << chain.size() << " qFan " << qFan << " qApex " << qApex
+                  << " fill " << static_cast<int>(fill) << " v " << v << m.position(v).transpose() << " N " << N
+                  << m.position(N).transpose() << " o " << o << m.position(o).transpose() << " Ptip "
+                  << (P ? P->tip : Vertex()) << "\n";
       if (dbg() && !paired && chain.size() == 1)
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
       if (fill == Fill::Defer) {
@@ -710,7 +731,10 @@ struct CutEngine::Impl {
         }
       }
     } else if (walls) {
-      if (!fillHoleAt(tr.object, N, P ? kSideWall : kGrooveWall)) ++stats.fillFailures;
+      // A fan from N: the new front is the edge N - chain.back() (any other
+      // triangulation would leave no edge there, and the next step would lose the front).
+      const int kind = P ? kSideWall : kGrooveWall;
+      if (!fillFanAt(tr.object, N, kind) && !fillHoleAt(tr.object, N, kind)) ++stats.fillFailures;
       next = {chain.back()};
       if (P && P->tip == chain.back()) P->chain = {N};
     }
@@ -750,6 +774,47 @@ struct CutEngine::Impl {
     const auto loop = boundaryLoop(m, be, 200);
     if (loop.size() < 3) return false;
     return fillLoop(obj, loop, kind);
+  }
+
+  // Smallest height of the fan from ids[0] closing the loop `ids` (copies listed as
+  // their originals), -inf when one of its diagonals is an edge already.
+  static double fanQuality(const SurfaceMesh& m, const std::vector<Vertex>& ids) {
+    double q = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 1; i + 1 < ids.size(); ++i) {
+      if (i >= 2 && (ids[i] == ids[0] || m.findEdge(ids[0], ids[i]).isValid()))
+        return -std::numeric_limits<double>::infinity();
+      q = std::min(q, height(m.position(ids[0]), m.position(ids[i]), m.position(ids[i + 1])));
+    }
+    return q;
+  }
+
+  // Closes the boundary loop through `apex` with a fan from it. False (mesh unchanged)
+  // when a diagonal exists already.
+  bool fillFanAt(int obj, Vertex apex, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    Edge be;
+    for (Edge e : m.edges(apex))
+      if (m.isBoundary(e)) {
+        be = e;
+        break;
+      }
+    if (!be.isValid()) return false;
+    std::vector<Vertex> loop = boundaryLoop(m, be, 200);
+    const auto at = std::find(loop.begin(), loop.end(), apex);
+    if (loop.size() < 3 || at == loop.end()) return false;
+    std::rotate(loop.begin(), at, loop.end());
+    for (std::size_t i = 2; i + 1 < loop.size(); ++i)
+      if (loop[i] == apex || m.findEdge(apex, loop[i]).isValid()) return false;
+    std::vector<Face> added;
+    for (std::size_t i = 1; i + 1 < loop.size(); ++i) {
+      const Face f = addTriangle(obj, apex, loop[i], loop[i + 1], kind);
+      if (!f.isValid()) {
+        for (Face g : added) m.deleteFace(g);
+        return false;
+      }
+      added.push_back(f);
+    }
+    return true;
   }
 
   // Best smallest triangle height for closing a loop of vertices (copies listed as
@@ -1241,6 +1306,91 @@ struct CutEngine::Impl {
     return Vec3::Zero();
   }
 
+  // ---- points of the tissue -------------------------------------------------------------------
+  // Ties P to face f when it lies in it (else to a face around f's corners, or around
+  // `near`, that holds it).
+  Anchor anchorOf(const SurfaceMesh& m, Face f, const Vec3& P, Vertex near = Vertex()) {
+    Anchor a;
+    auto tie = [&](Face g) {
+      if (!m.isValid(g) || !pointInFace(m, g, P, 1e-7)) return false;
+      a.corners = m.vertices(g);
+      a.weights = barycentric(m, g, P);
+      a.valid = true;
+      return true;
+    };
+    if (tie(f)) return a;
+    if (m.isValid(near))
+      for (Face g : m.faces(near))
+        if (tie(g)) return a;
+    if (m.isValid(f))
+      for (Vertex v : m.vertices(f))
+        for (Face g : m.faces(v))
+          if (tie(g)) return a;
+    return a;
+  }
+
+  static Vec3 placeOf(const SurfaceMesh& m, const Anchor& a) {
+    return a.weights[0] * m.position(a.corners[0]) + a.weights[1] * m.position(a.corners[1]) +
+           a.weights[2] * m.position(a.corners[2]);
+  }
+
+  // After every sample: where the track's start and pending points sit in the tissue.
+  void anchor(Track& tr) {
+    if (!tr.alive) return;
+    const SurfaceMesh& m = meshOf(tr.object);
+    tr.startAt = (tr.hasStart && !tr.tip.isValid()) ? anchorOf(m, tr.startFace, tr.start) : Anchor();
+    if (!tr.hasPending)
+      tr.pendingAt = Anchor();
+    else if (tr.tip.isValid())
+      tr.pendingAt = anchorOf(m, tr.pendingFace, tr.pending, tr.tip);
+    else
+      tr.pendingAt = anchorOf(m, tr.startFace, tr.pending);
+    tr.anchoredAt = motionCount;
+  }
+
+  // Before a sample: the tissue may have moved since (physics), and the track's start
+  // and pending points with it; crossings are matched and walked to where they are now.
+  void followTissue(Track& tr) {
+    if (!tr.alive || tr.anchoredAt == motionCount) return;
+    const SurfaceMesh& m = meshOf(tr.object);
+    auto valid = [&](const Anchor& a) {
+      return a.valid && m.isValid(a.corners[0]) && m.isValid(a.corners[1]) && m.isValid(a.corners[2]);
+    };
+    if (tr.hasStart && !tr.tip.isValid() && valid(tr.startAt)) tr.start = placeOf(m, tr.startAt);
+    if (tr.hasPending && valid(tr.pendingAt)) tr.pending = placeOf(m, tr.pendingAt);
+    tr.anchoredAt = motionCount;
+  }
+
+  // The tissue moved under the blade (physics: a cut retracts and gapes, its tip
+  // running ahead): the blade now meets the cut behind its tip (a wall of the opening,
+  // a lip, or nothing). The cut waits there until the blade reaches tissue ahead of the
+  // tip again, instead of walking backward or sideways (or ending and starting anew).
+  bool behindTip(const Track& tr, const Vec3& P) const {
+    if (!tr.tip.isValid() || !tr.prevTip.isValid()) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    if (!m.isValid(tr.prevTip)) return false;
+    const Vec3 pt = m.position(tr.tip), dir = pt - m.position(tr.prevTip);
+    const Vec3 d = P - pt;
+    return dir.norm() > 0.0 && d.norm() <= p.matchRadius && d.dot(dir) < 0.0;
+  }
+  bool holdsAt(const Track& tr, const Hit& h) const {
+    if (behindTip(tr, h.point)) return true;
+    if (!tr.tip.isValid()) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    return m.isValid(h.face) && kind && kind[h.face] != kSurface &&
+           (h.point - m.position(tr.tip)).norm() <= p.matchRadius;
+  }
+  // No crossing for the track: the blade passes by its tip inside the opening.
+  bool holdsWithout(const Track& tr, const instruments::Segment& s) const {
+    if (!tr.tip.isValid()) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    const Vec3 pt = m.position(tr.tip), ab = s.b - s.a;
+    const double u = ab.squaredNorm() > 0 ? std::clamp((pt - s.a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+    const Vec3 q = s.a + u * ab;
+    return u > 0.0 && u < 1.0 && behindTip(tr, q);
+  }
+
   // ---- track life ---------------------------------------------------------------------------
   void commitStart(Track& tr) {
     if (tr.tip.isValid() || !tr.hasStart) return;
@@ -1299,6 +1449,10 @@ struct CutEngine::Impl {
       commitStart(tr);
       if (!tr.alive) return;
     }
+    if (holdsAt(tr, h)) {
+      ++stats.holds;
+      return;
+    }
     SurfaceMesh& m = meshOf(tr.object);
     const Vec3 from = m.position(tr.tip);
     Vec3 fallback = Vec3::UnitZ();
@@ -1320,7 +1474,19 @@ struct CutEngine::Impl {
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok) {
-      if (dbg()) std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << "\n";
+      if (dbg()) {
+        const SurfaceMesh& md = meshOf(tr.object);
+        int own = -1, kind = -1;
+        if (md.isValid(h.face)) {
+          own = 1;
+          for (Vertex x : md.vertices(h.face))
+            if (!tr.visited.count(x)) own = 0;
+          kind = md.getFaceProperty<int>(kFaceKindProp)[h.face];
+        }
+        std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << " from "
+                  << from.transpose() << " hitface own " << own << " kind " << kind << " partner " << tr.partner
+                  << " chain " << tr.chain.size() << "\n";
+      }
       ++stats.walkFailures;
       tr.hasPending = false;
       end(tr);
@@ -1634,16 +1800,21 @@ struct CutEngine::Impl {
         return;
       }
       ++stats.walkFailures;
-      // Could not join the layers: both go on as independent cuts from sB.
-      a.partner = b.partner = -1;
-      a.tip = sB;
-      a.chain.clear();
-      for (Vertex x : path) extend(a, x, h0.depth);
+      // Could not join the layers around the edge (e.g. a side the tissue's motion made
+      // wavy): the path found is not the cut's (opening along it made long wrong cuts),
+      // so nothing opens there; the two crossings go on as a pierce through both layers.
+      a.alive = b.alive = false;
+      startTunnel(hs, h0, h1);
       return;
     }
     // No edge the blade came in over (e.g. it went in along itself): a pierce.
     startTunnel(hs, h0, h1);
   }
+
+  // Material thinner than this between two crossings of one edge is a fold of the
+  // surface the blade grazes (a cut's lip curled by the tissue's motion), not two layers
+  // to join with side walls.
+  double foldThickness() const { return 10.0 * p.snapDistance; }
 
   // Two layers pierced in the middle of the object: each gets its own track; they
   // are paired and join through a tunnel once both paths can open.
@@ -2088,6 +2259,7 @@ struct CutEngine::Impl {
       return (a.b - a.a).normalized();
     };
 
+    for (auto& t : hs.tracks) followTissue(t);
     // Match crossings to the tracks of the previous sample, nearest first.
     std::vector<Pair>& pairs = pairsBuf;
     pairs.clear();
@@ -2132,6 +2304,7 @@ struct CutEngine::Impl {
         const bool between = nb < i ? (o.dir > 0 && h.dir < 0) : (h.dir > 0 && o.dir < 0);
         const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
         if (!between || !t.alive || t.partner >= 0 || t.tunnel) continue;
+        if ((h.point - o.point).norm() < foldThickness()) continue;  // a fold of the surface, not the bottom
         Deep d{i, trackOfHit[nb], Vec3::Zero(), Vec3::Zero(), 2.0};
         if (prevSegs.size() == segs.size()) {
           // The end of the edge beyond the new crossing is the one that went through.
@@ -2191,6 +2364,13 @@ struct CutEngine::Impl {
       Track& t = hs.tracks[ti];
       if (!t.alive || matchOf[ti] >= 0) continue;
       Track* P = trackById(t.partner);
+      {
+        const auto& sg = segs[static_cast<std::size_t>(t.segment)];
+        if (holdsWithout(t, sg) || (P && holdsWithout(*P, sg))) {
+          ++stats.holds;
+          continue;
+        }
+      }
       if (P) {
         std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
         if (pi < nTracks && matchOf[pi] < 0) {
@@ -2214,8 +2394,16 @@ struct CutEngine::Impl {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
       std::size_t j = i + 1;
+      // Two new crossings close together beside a cut this edge is making: the blade
+      // grazes a fold of the surface (a lip the moving tissue curled), not two layers.
+      auto besideCut = [&](const Hit& x) {
+        for (std::size_t k = 0; k < hits.size(); ++k)
+          if (trackOfHit[k] >= 0 && hits[k].object == x.object && hits[k].segment == x.segment) return true;
+        return false;
+      };
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
-          hits[j].dir < 0 && closedObject(h.object)) {
+          hits[j].dir < 0 && closedObject(h.object) &&
+          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h))) {
         hits[i].used = hits[j].used = true;
         // Upper layer (h0) is the one nearer the edge's far end b.
         {
@@ -2244,6 +2432,7 @@ struct CutEngine::Impl {
     for (int o : objs) separate(o);
     debugScan("separate");
     for (auto& h : hands) std::erase_if(h.tracks, [](const Track& t) { return !t.alive; });
+    for (auto& t : hs.tracks) anchor(t);
     if (report) {
       for (const auto& t : hs.tracks) {
         if (!t.alive || !t.hasPending) continue;
@@ -2340,6 +2529,7 @@ TissueObject& CutEngine::object(int id) {
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
   // The caller may move vertices: the object's BVH is refitted before the next query.
   impl_->moved[static_cast<std::size_t>(i)] = 1;
+  ++impl_->motionCount;  // and the tracks' start and pending points move with it
   return impl_->objects[static_cast<std::size_t>(i)];
 }
 
@@ -2353,6 +2543,8 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
   const int i = impl_->indexOf(id);
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
   impl_->noteMoved(static_cast<std::size_t>(i), vertices);
+  // The tracks' start and pending points move with the tissue they are anchored to.
+  if (!vertices.empty()) ++impl_->motionCount;
 }
 
 void CutEngine::verticesMoved(int id) { (void)object(id); }

@@ -111,6 +111,7 @@ struct CutStats {
   long tracks = 0;
   long separations = 0;
   long walkFailures = 0;           // a track could not follow the blade and was ended
+  long holds = 0;                  // track samples that waited: the blade was behind the moved tip
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)
   long flips = 0;                  // edges flipped to remove thin triangles

@@ -44,10 +44,11 @@ TEST(CutterRim, StraightCutThroughTaperedRimsSeparates) {
 // The tissue moves under the blade (as physics would between samples): the far rim
 // sags smoothly while the stroke goes on, so the crossings there are not where the
 // undeformed slab had them.
-// Known open bug (kept as DISABLED_ to document it): the two layers' fronts
-// grow closed (deferred) and A's front chain stops ending at B's tip, so cutOut() never
-// closes the loop. Same mechanism as corner_80mms.csv with --physics on.
-TEST(CutterRim, DISABLED_RimMovingBetweenSamplesStillSeparates) {
+// Was a bug (found with this test, also without the motion): the first step past the
+// long cut-in front closed it with a triangulation that left no edge from the new tip
+// to the other layer's tip, so the top layer lost its front, grew closed to the end and
+// cut-out found no loop. The front now closes with a fan from the new tip.
+TEST(CutterRim, RimMovingBetweenSamplesStillSeparates) {
   CutEngine e;
   const int id = e.addObject(taperedSlab(1.0));
   const Vec3 a(-13, -2.2, -5.5), b(13, -2.2, -5.5);
