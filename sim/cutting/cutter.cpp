@@ -759,17 +759,19 @@ struct CutEngine::Impl {
     return true;
   }
 
+  // A boundary edge at v (the first in v's edge order), invalid when v is interior.
+  static Edge boundaryEdgeAt(const SurfaceMesh& m, Vertex v) {
+    for (Edge e : m.edges(v))
+      if (m.isBoundary(e)) return e;
+    return Edge();
+  }
+
   // Closes the boundary loop through `start` (an opening made by the cut) with
   // triangles: the triangulation of the loop whose smallest triangle is largest,
   // never reusing an existing edge as a diagonal.
   bool fillHoleAt(int obj, Vertex start, int kind) {
     SurfaceMesh& m = meshOf(obj);
-    Edge be;
-    for (Edge e : m.edges(start))
-      if (m.isBoundary(e)) {
-        be = e;
-        break;
-      }
+    const Edge be = boundaryEdgeAt(m, start);
     if (!be.isValid()) return true;
     const auto loop = boundaryLoop(m, be, 200);
     if (loop.size() < 3) return false;
@@ -792,12 +794,7 @@ struct CutEngine::Impl {
   // when a diagonal exists already.
   bool fillFanAt(int obj, Vertex apex, int kind) {
     SurfaceMesh& m = meshOf(obj);
-    Edge be;
-    for (Edge e : m.edges(apex))
-      if (m.isBoundary(e)) {
-        be = e;
-        break;
-      }
+    const Edge be = boundaryEdgeAt(m, apex);
     if (!be.isValid()) return false;
     std::vector<Vertex> loop = boundaryLoop(m, be, 200);
     const auto at = std::find(loop.begin(), loop.end(), apex);
