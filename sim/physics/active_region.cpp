@@ -14,10 +14,7 @@ namespace {
 
 enum : std::uint8_t { kAsleep = 0, kAwake = 1, kLeaving = 2 };  // kLeaving: asleep, still listed
 
-void ensureActiveSet(Dynamics& s) {
-  auto& a = s.active;
-  const auto& c = s.cache;
-  if (a.topologyVersion == c.topologyVersion && a.awake.size() == c.nVertexSlots) return;
+void buildCsr(detail::ActiveSet& a, const detail::Cache& c) {
   const std::size_t n = c.nVertexSlots;
   a.csrStart.assign(n + 1, 0);
   for (const auto& sp : c.springs) {
@@ -31,16 +28,99 @@ void ensureActiveSet(Dynamics& s) {
     a.csrSpring[fill[c.springs[k].i]++] = k;
     a.csrSpring[fill[c.springs[k].j]++] = k;
   }
-  // Start with every vertex awake; the quiet ones fall asleep within sleepAfter steps.
-  a.awake.assign(n, kAsleep);
-  a.quiet.assign(n, 0);
-  a.list.clear();
-  for (std::uint32_t i = 0; i < n; ++i)
-    if (c.invMass[i] != 0.0) {
-      a.awake[i] = kAwake;
-      a.list.push_back(i);
+  a.added.clear();
+  a.hasAdded.assign(n, 0);
+  a.springsSeen = c.springs.size();
+}
+
+// Calls fn(j, spring) for every spring at vertex i (dead ones have k = rest = 0).
+template <class F>
+void forEachSpring(const detail::ActiveSet& a, const detail::Cache& c, std::uint32_t i, F&& fn) {
+  if (i + 1 < a.csrStart.size())
+    for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
+      const auto& sp = c.springs[a.csrSpring[k]];
+      fn(sp.i == i ? sp.j : sp.i, sp);
     }
-  a.topologyVersion = c.topologyVersion;
+  if (i >= a.hasAdded.size() || !a.hasAdded[i]) return;
+  auto it = std::lower_bound(a.added.begin(), a.added.end(), std::pair<std::uint32_t, std::uint32_t>(i, 0));
+  for (; it != a.added.end() && it->first == i; ++it) {
+    const auto& sp = c.springs[it->second];
+    fn(sp.i == i ? sp.j : sp.i, sp);
+  }
+}
+
+void wakeVertex(detail::ActiveSet& a, const detail::Cache& c, std::uint32_t j, bool contact);
+
+// Brings the set up to the cache and the mesh. Edits in place (a cut) keep every
+// vertex's state and wake only the vertices the edits touched (the journal's
+// vertices, the ends of its edges, the corners of its faces) and the ends of the new
+// springs: the cut's neighbourhood, not the whole tissue. Cost O(edits) plus, after a
+// cache rebuild, O(springs) for the adjacency. A new layout (or the first step)
+// starts with every vertex awake; the quiet ones fall asleep within sleepAfter steps.
+void ensureActiveSet(Dynamics& s, const mesh::SurfaceMesh& m) {
+  auto& a = s.active;
+  const auto& c = s.cache;
+  const std::size_t n = c.nVertexSlots;
+  const bool sameLayout = a.layoutVersion == m.layoutVersion() && a.journalV <= m.editedVertices().size() &&
+                          a.journalE <= m.editedEdges().size() && a.journalF <= m.editedFaces().size() &&
+                          a.awake.size() <= n && !a.awake.empty();
+  if (sameLayout && a.rebuilds == c.rebuilds && a.springsSeen == c.springs.size() && a.awake.size() == n &&
+      a.journalV == m.editedVertices().size() && a.journalE == m.editedEdges().size() &&
+      a.journalF == m.editedFaces().size())
+    return;
+  if (!sameLayout) {
+    buildCsr(a, c);
+    a.awake.assign(n, kAsleep);
+    a.quiet.assign(n, 0);
+    a.list.clear();
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (c.invMass[i] != 0.0) {
+        a.awake[i] = kAwake;
+        a.list.push_back(i);
+      }
+    ++a.restarts;
+  } else {
+    const std::size_t seen = a.springsSeen;
+    if (a.rebuilds != c.rebuilds) {
+      buildCsr(a, c);
+    } else {
+      a.hasAdded.resize(n, 0);
+      for (std::size_t k = seen; k < c.springs.size(); ++k) {
+        a.added.emplace_back(c.springs[k].i, static_cast<std::uint32_t>(k));
+        a.added.emplace_back(c.springs[k].j, static_cast<std::uint32_t>(k));
+        a.hasAdded[c.springs[k].i] = a.hasAdded[c.springs[k].j] = 1;
+      }
+      std::sort(a.added.begin(), a.added.end());
+      a.springsSeen = c.springs.size();
+    }
+    a.awake.resize(n, kAsleep);
+    a.quiet.resize(n, 0);
+    // Deleted (massless) vertices leave the list.
+    std::size_t kept = 0;
+    for (const std::uint32_t i : a.list) {
+      if (c.invMass[i] != 0.0)
+        a.list[kept++] = i;
+      else
+        a.awake[i] = kAsleep;
+    }
+    a.list.resize(kept);
+    for (const mesh::Vertex v : m.editedVertices().subspan(a.journalV)) wakeVertex(a, c, v.idx(), true);
+    for (const mesh::Edge e : m.editedEdges().subspan(a.journalE))
+      if (!m.isDeleted(e))
+        for (int end = 0; end < 2; ++end) wakeVertex(a, c, m.vertex(e, end).idx(), true);
+    for (const mesh::Face f : m.editedFaces().subspan(a.journalF))
+      if (!m.isDeleted(f))
+        for (const mesh::Vertex v : m.vertices(f)) wakeVertex(a, c, v.idx(), true);
+    for (std::size_t k = std::min(seen, c.springs.size()); k < c.springs.size(); ++k) {
+      wakeVertex(a, c, c.springs[k].i, true);
+      wakeVertex(a, c, c.springs[k].j, true);
+    }
+  }
+  a.rebuilds = c.rebuilds;
+  a.layoutVersion = m.layoutVersion();
+  a.journalV = m.editedVertices().size();
+  a.journalE = m.editedEdges().size();
+  a.journalF = m.editedFaces().size();
 }
 
 // Newly woken vertices join the list's end; one that fell asleep earlier in this step
@@ -68,7 +148,7 @@ void wake(Dynamics& d, std::span<const mesh::Vertex> vertices) {
 // Cost: O(awake vertices and their springs), plus O(vertices) for the force scan when
 // scanExternalForces is on and on the first step after a topology change.
 StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, double dt) {
-  ensureActiveSet(state);
+  ensureActiveSet(state, mesh);
   auto& a = state.active;
   const auto& c = state.cache;
   auto& x = mesh.positions();
@@ -86,49 +166,72 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
   for (const std::uint32_t i : a.pending) wakeVertex(a, c, i, true);
   a.pending.clear();
 
-  // Forces for the awake vertices at the old positions (sleepers are fixed).
+  // Substeps that keep the awake region stable: ω² of a vertex is at most
+  // (homeK + 2 Σk)/m (Gershgorin), and a symplectic step needs ω·h < 2. A cut's short
+  // edges are stiff and light; the full step finds this out by rejection, the region
+  // step knows it in advance from what is awake.
   const std::size_t m = a.list.size();
+  double w2 = 0.0;
+  for (const std::uint32_t i : a.list) w2 = std::max(w2, (tp.homeK + 2.0 * c.vertexStiffness[i]) * c.invMass[i]);
+  const double need = std::ceil(dt * std::sqrt(w2) / 1.9);
+  const auto fallBack = [&] {
+    // The monitored full step (substeps, then the implicit method) takes over.
+    for (std::size_t q = 0; q < m; ++q) {
+      x[a.list[q]] = a.x0[q];
+      v[a.list[q]] = a.v0[q];
+    }
+    Params full = params;
+    full.active.enabled = false;
+    a.layoutVersion = ~std::uint64_t{0};
+    return step(full, state, mesh, dt);
+  };
+  a.x0.resize(m);
+  a.v0.resize(m);
+  for (std::size_t q = 0; q < m; ++q) {
+    a.x0[q] = x[a.list[q]];
+    a.v0[q] = v[a.list[q]];
+  }
+  if (!(need <= params.stability.maxSubsteps)) return fallBack();
+  const int substeps = std::max(1, static_cast<int>(need));
+  const double h = dt / substeps;
+
+  // Forces for the awake vertices at the old positions (sleepers are fixed).
   auto& xn = state.cache.xt;
   auto& vn = state.cache.vt;
   xn.resize(m);
   vn.resize(m);
   a.loud.assign(m, 0);
-  const double damp = 1.0 - dt * tp.damping;
+  const double damp = 1.0 - h * tp.damping;
   const double ft2 = ao.forceThreshold * ao.forceThreshold, vt2 = ao.speedThreshold * ao.speedThreshold;
-  bool finite = true;
-  for (std::size_t q = 0; q < m; ++q) {
-    const std::uint32_t i = a.list[q];
-    Vec3 f = ext[i] + c.mass[i] * tp.gravity - tp.homeK * (x[i] - home[i]);
-    for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
-      const auto& sp = c.springs[a.csrSpring[k]];
-      const std::uint32_t j = sp.i == i ? sp.j : sp.i;
-      const Vec3 d = x[j] - x[i];
-      const double l = d.norm();
-      if (l > 0.0) f += (sp.k * (l - sp.rest) / l) * d;
+  const double maxV2 = params.stability.maxSpeed * params.stability.maxSpeed;
+  for (int sub = 0; sub < substeps; ++sub) {
+    bool ok = true;
+    for (std::size_t q = 0; q < m; ++q) {
+      const std::uint32_t i = a.list[q];
+      Vec3 f = ext[i] + c.mass[i] * tp.gravity - tp.homeK * (x[i] - home[i]);
+      forEachSpring(a, c, i, [&](std::uint32_t j, const detail::Spring& sp) {
+        const Vec3 d = x[j] - x[i];
+        const double l = d.norm();
+        if (l > 0.0) f += (sp.k * (l - sp.rest) / l) * d;
+      });
+      vn[q] = damp * v[i] + (h * c.invMass[i]) * f;
+      xn[q] = x[i] + h * vn[q];
+      // Finite and below the monitor's speed bound (a divergence that stays finite).
+      ok = ok && xn[q].allFinite() && vn[q].squaredNorm() <= maxV2;
+      a.loud[q] = a.loud[q] || f.squaredNorm() > ft2 || vn[q].squaredNorm() > vt2;
     }
-    vn[q] = damp * v[i] + (dt * c.invMass[i]) * f;
-    xn[q] = x[i] + dt * vn[q];
-    finite = finite && xn[q].allFinite() && vn[q].allFinite();
-    a.loud[q] = f.squaredNorm() > ft2 || vn[q].squaredNorm() > vt2;
-  }
-  if (!finite) {
-    // Let the monitored full step handle it.
-    Params full = params;
-    full.active.enabled = false;
-    a.topologyVersion = ~std::uint64_t{0};
-    return step(full, state, mesh, dt);
+    if (!ok) return fallBack();
+    for (std::size_t q = 0; q < m; ++q) {
+      x[a.list[q]] = xn[q];
+      v[a.list[q]] = vn[q];
+    }
   }
   for (std::size_t q = 0; q < m; ++q) {
     const std::uint32_t i = a.list[q];
-    x[i] = xn[q];
-    v[i] = vn[q];
     if (a.loud[q]) {
       a.quiet[i] = 0;
       // Propagate: a loud vertex wakes its neighbours (from the next step on).
-      for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
-        const auto& sp = c.springs[a.csrSpring[k]];
-        wakeVertex(a, c, sp.i == i ? sp.j : sp.i, false);
-      }
+      forEachSpring(a, c, i, [&](std::uint32_t j, const detail::Spring&) { wakeVertex(a, c, j, false); });
     } else if (++a.quiet[i] >= ao.sleepAfter && ext[i].squaredNorm() == 0.0) {
       a.awake[i] = kLeaving;
       v[i].setZero();
@@ -149,6 +252,7 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
   a.movedStep = state.steps;
   StepInfo info;
   info.activeVertices = m;
+  info.substeps = substeps;
   return info;
 }
 

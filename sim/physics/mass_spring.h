@@ -24,6 +24,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -207,7 +208,18 @@ struct ActiveSet {
   std::vector<std::uint32_t> pending;                                   // named by wake(), woken at the next step
   std::vector<std::uint8_t> loud;                                       // step scratch
   std::vector<std::uint32_t> csrStart, csrSpring;                       // vertex → incident springs
-  std::uint64_t topologyVersion = std::numeric_limits<std::uint64_t>::max();
+  // Springs the cache added after the CSR above was built: (vertex, spring) pairs,
+  // sorted by vertex (a cut adds a handful at a time).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> added;
+  std::vector<std::uint8_t> hasAdded;  // per vertex: it has pairs in `added`
+  // What the set was last brought up to: the cache's rebuild count and spring count,
+  // the mesh's layout and journal sizes. A topology edit in place wakes only what it
+  // touched; a new layout (indices renumbered) starts with every vertex awake.
+  std::uint64_t rebuilds = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t layoutVersion = std::numeric_limits<std::uint64_t>::max();
+  std::size_t springsSeen = 0, journalV = 0, journalE = 0, journalF = 0;
+  std::uint64_t restarts = 0;  // times every vertex was woken (layout changes)
+  std::vector<Eigen::Vector3d> x0, v0;  // the listed vertices at the step's start (for a fallback)
 };
 }  // namespace detail
 

@@ -106,5 +106,72 @@ TEST(ActiveRegion, NamedContactsMatchTheForceScan) {
   EXPECT_GT(testutil::maxDiff(before, testutil::positionsOf(b)), 0.0);
 }
 
+// A cut's edits wake the vertices they touched, not the whole tissue: the first step
+// after them integrates a handful of vertices, the region grows only as far as the
+// change pulls, and the motion stays close to the full solve.
+TEST(ActiveRegion, ATopologyEditWakesOnlyItsNeighbourhood) {
+  Params p;
+  p.tissue.massFloorDt = 1e-3;  // as the cutter's users set it: no vertex too light for dt
+  p.active.enabled = true;
+  p.active.scanExternalForces = false;
+  Params fullP = p;
+  fullP.active.enabled = false;
+  State s = makeState(makeGrid(40, 40, 4.0), p.tissue);
+  settle(fullP, s);
+  for (int i = 0; i < 3000 && step(p, s, 1e-3).activeVertices > 0; ++i) {
+  }
+  ASSERT_EQ(step(p, s, 1e-3).activeVertices, 0u);
+  const auto restarts = s.active.restarts;
+
+  // Local edits near the centre: two edge splits and a face split (new stretched
+  // springs, new vertices, new masses).
+  auto& m = s.mesh;
+  const mesh::Vertex c = nearestVertex(m, Vec3(80, 80, 0));
+  std::vector<mesh::Edge> around;
+  for (mesh::Edge e : m.edges(c)) around.push_back(e);
+  ASSERT_GE(around.size(), 3u);
+  for (int k = 0; k < 2; ++k) {
+    const auto a = m.vertex(around[k], 0), b = m.vertex(around[k], 1);
+    const auto v = m.splitEdge(around[k], 0.5 * (m.position(a) + m.position(b)));
+    initVertexOnEdge(m, v, a, b, 0.5, p.tissue);
+    for (mesh::Edge e2 : m.edges(v)) initEdge(m, e2, p.tissue);
+  }
+  mesh::Face f;
+  for (mesh::Face g : m.faces(c)) f = g;
+  const auto vs = m.vertices(f);
+  const auto v = m.splitFace(f, m.centroid(f));
+  initVertexInFace(m, v, vs[0], vs[1], vs[2], Vec3::Constant(1.0 / 3.0), p.tissue);
+  for (mesh::Edge e : m.edges(v)) initEdge(m, e, p.tissue);
+  ASSERT_TRUE(m.validate().ok()) << m.validate().message();
+
+  State full = s;
+  const auto before = testutil::positionsOf(s);
+  const std::size_t first = step(p, s, 1e-3).activeVertices;
+  step(fullP, full, 1e-3);
+  EXPECT_EQ(s.active.restarts, restarts) << "the edit woke every vertex";
+  EXPECT_GT(first, 3u);                          // the new vertices and their neighbours
+  EXPECT_LT(first, m.nVertices() / 20);          // not the tissue
+  std::size_t worked = first, total = m.nVertices();
+  double maxDiff = 0;
+  for (int i = 0; i < 400; ++i) {
+    worked += step(p, s, 1e-3).activeVertices;
+    step(fullP, full, 1e-3);
+    total += m.nVertices();
+    maxDiff = std::max(maxDiff, testutil::maxDiff(full.mesh.positions(), s.mesh.positions()));
+  }
+  // The edit moved the tissue (the new springs are pre-stretched) …
+  EXPECT_GT(testutil::maxDiff(before, testutil::positionsOf(full)), 0.01);
+  // … the active region followed it with a small share of the work …
+  EXPECT_LT(static_cast<double>(worked), 0.5 * static_cast<double>(total));
+  // … and stayed close to the full solve.
+  EXPECT_LT(maxDiff, 0.02);
+  EXPECT_TRUE(isFinite(s));
+
+  // A new layout (a copy renumbers nothing, but its cache and set start afresh).
+  State copy;
+  copy.mesh = s.mesh;
+  EXPECT_EQ(step(p, copy, 1e-3).activeVertices, copy.mesh.nVertices());
+}
+
 }  // namespace
 }  // namespace ld::physics
