@@ -58,7 +58,8 @@ struct ScalarSums {
   double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0, kv2 = 0;
 };
 inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, ScalarSums& s) {
-  const double im = c.invMass[t], m = c.mass[t], kt = c.stiffness[t];
+  const double m = c.mass[t], kt = c.stiffness[t];
+  const double im = m > 0.0 ? 1.0 / m : 0.0;  // as the cache's 1/mass, one stream fewer
   const bool live = im != 0.0;
   for (std::size_t a = 0; a < 3; ++a) {
     const std::size_t b = 3 * t + a;
@@ -198,14 +199,16 @@ struct Acc2 {
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
 // forces fa (x, y, z, 0 a vertex) regrouped to 3 a vertex.
 LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double* x0, const double* v0,
-                            const double* home, const double* ext, const double* im, const double* mass,
+                            const double* home, const double* ext, const double* mass,
                             const double* stiff, double* x1, double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
   const __m256d F[3] = {_mm256_blend_pd(fa[0], _mm256_permute4x64_pd(fa[1], 0x00), 0x8),
                         _mm256_blend_pd(_mm256_permute4x64_pd(fa[1], 0x09), _mm256_permute4x64_pd(fa[2], 0x40), 0xC),
                         _mm256_blend_pd(_mm256_permute4x64_pd(fa[3], 0x90), _mm256_permute4x64_pd(fa[2], 0x02), 0x1)};
-  const __m256d imv = _mm256_loadu_pd(im), mv = _mm256_loadu_pd(mass);
+  const __m256d mv = _mm256_loadu_pd(mass);
+  // 1/mass (0 where mass ≤ 0), rounded as the cache's: one stream fewer to read.
+  const __m256d imv = _mm256_and_pd(_mm256_div_pd(_mm256_set1_pd(1.0), mv), _mm256_cmp_pd(mv, zero, _CMP_GT_OQ));
   const __m256d im3[3] = {_mm256_permute4x64_pd(imv, 0x40), _mm256_permute4x64_pd(imv, 0xA5),
                           _mm256_permute4x64_pd(imv, 0xFE)};
   const __m256d m3[3] = {_mm256_permute4x64_pd(mv, 0x40), _mm256_permute4x64_pd(mv, 0xA5),
@@ -294,19 +297,18 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
     for (std::size_t q = 0; q < rem; q += 4) {
       const std::size_t t4 = t + q, rem4 = std::min<std::size_t>(4, rem - q), b = 3 * t4;
       if (rem4 == 4) {
-        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.invMass + t4, c.mass + t4, c.stiffness + t4,
+        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.mass + t4, c.stiffness + t4,
                 c.x1 + b, c.v1 + b, grav, acc);
         continue;
       }
       // The last 1–3 vertices through the same lanes, padded with massless zeros.
-      double buf[6][12] = {}, im[4] = {}, mass[4] = {}, stiff[4] = {};
+      double buf[6][12] = {}, mass[4] = {}, stiff[4] = {};
       const double* src[4] = {c.x0 + b, c.v0 + b, c.home + b, c.ext + b};
       for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem4, buf[a]);
       for (std::size_t u = rem4; u < 4; ++u) fv[q + u] = zero;
-      std::copy(c.invMass + t4, c.invMass + t4 + rem4, im);
       std::copy(c.mass + t4, c.mass + t4 + rem4, mass);
       std::copy(c.stiffness + t4, c.stiffness + t4 + rem4, stiff);
-      finish4(c, fv + q, buf[0], buf[1], buf[2], buf[3], im, mass, stiff, buf[4], buf[5], grav, acc);
+      finish4(c, fv + q, buf[0], buf[1], buf[2], buf[3], mass, stiff, buf[4], buf[5], grav, acc);
       std::copy(buf[4], buf[4] + 3 * rem4, c.x1 + b);
       std::copy(buf[5], buf[5] + 3 * rem4, c.v1 + b);
     }
@@ -416,18 +418,30 @@ struct Consts512 {
 // shuffles beat gathers here), summed per lane in registers.
 LD_AVX512 inline void springs8(const BlockStep& c, const Consts512& k, std::size_t blk, const __m512d* xi, __m512d* f,
                                __m512d& pe) {
-  for (int a = 0; a < 3; ++a) f[a] = k.zero;
-  for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
-    const std::size_t q0 = kLanes * r;
-    const std::uint32_t* J = c.rankX + q0;
+  // Sums in locals (the caller's array would be stored every rank).
+  __m512d fx = k.zero, fy = k.zero, fz = k.zero, e = pe;
+  const double* x0 = c.x0;
+  const std::uint32_t* J = c.rankX + kLanes * c.rankStart[blk];
+  const double* K = c.rankK + kLanes * c.rankStart[blk];
+  const double* R = c.rankRest + kLanes * c.rankStart[blk];
+  for (std::uint32_t r = c.rankStart[blk], r1 = c.rankStart[blk + 1]; r < r1; ++r) {
     __m256d d[8];
-    for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, c.x0 + J[u]);
+    for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, x0 + J[u]);
     __m512d dxyz[3];
     transpose8(d, dxyz);
     for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
-    const __m512d w = springWeights8(dxyz, _mm512_load_pd(c.rankRest + q0), _mm512_load_pd(c.rankK + q0), pe);
-    for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
+    const __m512d w = springWeights8(dxyz, _mm512_load_pd(R), _mm512_load_pd(K), e);
+    fx = _mm512_fmadd_pd(w, dxyz[0], fx);
+    fy = _mm512_fmadd_pd(w, dxyz[1], fy);
+    fz = _mm512_fmadd_pd(w, dxyz[2], fz);
+    J += kLanes;
+    K += kLanes;
+    R += kLanes;
   }
+  f[0] = fx;
+  f[1] = fy;
+  f[2] = fz;
+  pe = e;
 }
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
@@ -451,7 +465,9 @@ LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_
     for (int r = 0; r < 3; ++r) F[r] = _mm512_add_pd(F[r], _mm512_permutex2var_pd(fa[r], k.regroup[r], fa[r + 1]));
   }
   const __mmask8 vm = __mmask8((1u << rem) - 1u);
-  const __m512d imv = _mm512_maskz_loadu_pd(vm, c.invMass + t), mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+  const __m512d mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
+  // 1/mass (0 where mass ≤ 0), rounded as the cache's: one stream fewer to read.
+  const __m512d imv = _mm512_maskz_div_pd(_mm512_cmp_pd_mask(mv, k.zero, _CMP_GT_OQ), _mm512_set1_pd(1.0), mv);
   const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
   for (std::size_t r = 0; r < 3; ++r) {
     const std::size_t o = b + 8 * r;
