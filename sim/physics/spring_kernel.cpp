@@ -416,32 +416,40 @@ struct Consts512 {
 // One block's springs (lanes at positions xi, one register an axis), rank by rank:
 // far ends (x, y, z) by three-lane loads, transposed to axis registers (16 loads and
 // shuffles beat gathers here), summed per lane in registers.
-LD_AVX512 inline void springs8(const BlockStep& c, const Consts512& k, std::size_t blk, const __m512d* xi, __m512d* f,
-                               __m512d& pe) {
-  // Sums in locals (the caller's array would be stored every rank).
-  __m512d fx = k.zero, fy = k.zero, fz = k.zero, e = pe;
+// One rank of 8 lanes (far-end offsets J, rest R, k K) into the lanes' sums.
+LD_AVX512 inline void rank8(const double* x0, const std::uint32_t* J, const double* R, const double* K,
+                            const __m512d* xi, __m512d* f, __m512d& pe) {
+  __m256d d[8];
+  for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, x0 + J[u]);
+  __m512d dxyz[3];
+  transpose8(d, dxyz);
+  for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
+  const __m512d w = springWeights8(dxyz, _mm512_load_pd(R), _mm512_load_pd(K), pe);
+  for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
+}
+
+// The group's two blocks (lanes at positions xi[h], one register an axis), rank by
+// rank, both blocks in one loop while both have ranks (two independent chains of
+// sqrt and div in flight), then the rest of the longer one; sums in registers.
+LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
+                                 __m512d (*f)[3], __m512d& pe) {
+  __m512d a[3] = {k.zero, k.zero, k.zero}, b[3] = {k.zero, k.zero, k.zero};
+  __m512d ea = pe, eb = k.zero;
   const double* x0 = c.x0;
-  const std::uint32_t* J = c.rankX + kLanes * c.rankStart[blk];
-  const double* K = c.rankK + kLanes * c.rankStart[blk];
-  const double* R = c.rankRest + kLanes * c.rankStart[blk];
-  for (std::uint32_t r = c.rankStart[blk], r1 = c.rankStart[blk + 1]; r < r1; ++r) {
-    __m256d d[8];
-    for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, x0 + J[u]);
-    __m512d dxyz[3];
-    transpose8(d, dxyz);
-    for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
-    const __m512d w = springWeights8(dxyz, _mm512_load_pd(R), _mm512_load_pd(K), e);
-    fx = _mm512_fmadd_pd(w, dxyz[0], fx);
-    fy = _mm512_fmadd_pd(w, dxyz[1], fy);
-    fz = _mm512_fmadd_pd(w, dxyz[2], fz);
-    J += kLanes;
-    K += kLanes;
-    R += kLanes;
+  const std::uint32_t r0 = c.rankStart[2 * grp], r1 = c.rankStart[2 * grp + 1], r2 = c.rankStart[2 * grp + 2];
+  const std::size_t both = std::min(r1 - r0, r2 - r1);
+  std::size_t qa = kLanes * r0, qb = kLanes * r1;
+  for (std::size_t r = 0; r < both; ++r, qa += kLanes, qb += kLanes) {
+    rank8(x0, c.rankX + qa, c.rankRest + qa, c.rankK + qa, xi[0], a, ea);
+    rank8(x0, c.rankX + qb, c.rankRest + qb, c.rankK + qb, xi[1], b, eb);
   }
-  f[0] = fx;
-  f[1] = fy;
-  f[2] = fz;
-  pe = e;
+  for (; qa < kLanes * r1; qa += kLanes) rank8(x0, c.rankX + qa, c.rankRest + qa, c.rankK + qa, xi[0], a, ea);
+  for (; qb < kLanes * r2; qb += kLanes) rank8(x0, c.rankX + qb, c.rankRest + qb, c.rankK + qb, xi[1], b, eb);
+  for (int q = 0; q < 3; ++q) {
+    f[0][q] = a[q];
+    f[1][q] = b[q];
+  }
+  pe = _mm512_add_pd(ea, eb);
 }
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
@@ -542,13 +550,12 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
         axis[h][a] = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(X[3 * h], k.toAxis[a], X[3 * h + 1]),
                                                 kRegroup.axisLast[a], k.toAxisLast[a], X[3 * h + 2]);
     // Each block's lanes are the group's vertices in slot order.
-    __m512d f[2][3];
+    __m512d f[2][3], xi[2][3];
     for (std::size_t h = 0; h < 2; ++h) {
       const __m512i sv = lanes8(c.slotVertex + t + kLanes * h);
-      __m512d xi[3];
-      for (int a = 0; a < 3; ++a) xi[a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
-      springs8(c, k, 2 * grp + h, xi, f[h], pe);
+      for (int a = 0; a < 3; ++a) xi[h][a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
     }
+    springs8x2(c, k, grp, xi, f, pe);
     const bool extra = c.extra[grp] != 0;
     for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
       const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);
