@@ -24,6 +24,25 @@ namespace ld::physics::detail {
 
 namespace {
 
+// Large meshes: the vertex arrays of the group kAhead groups ahead are prefetched
+// (six read streams besides the ranks' three; software prefetch measured 15-20 %
+// faster at 100k triangles under load, 4-10 % slower where the data sits in L2/L3,
+// hence only from kPrefetchFrom vertices on). Prefetching changes no result.
+// Always inlined: GCC takes a function that only prefetches for pure and drops its calls.
+constexpr std::size_t kAhead = 4, kPrefetchFrom = 16384;
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
+  if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
+  const std::size_t t = kGroup * (grp + kAhead);
+  for (const double* a : {c.x0, c.v0, c.home, c.ext})
+    for (std::size_t o = 0; o < 3 * kGroup; o += 8) __builtin_prefetch(a + 3 * t + o);
+  for (const double* a : {c.mass, c.stiffness})
+    for (std::size_t o = 0; o < kGroup; o += 8) __builtin_prefetch(a + t + o);
+}
+#else
+inline void prefetchGroup(const BlockStep&, std::size_t) {}
+#endif
+
 double springForcesScalar(const SpringChunk& c) {
   double pe = 0.0;
   for (std::size_t t = 0; t < c.m; ++t) {
@@ -84,6 +103,7 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
   ScalarSums s;
   double pe = 0.0;
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp;
     for (std::size_t slot = 0; slot < kGroup; ++slot) {
       const std::size_t i = t + c.slotVertex[t + slot];
@@ -274,6 +294,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
                            _mm256_setr_pd(c.g[1], c.g[2], c.g[0], c.g[1]),
                            _mm256_setr_pd(c.g[2], c.g[0], c.g[1], c.g[2])};
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp, rem = std::min(kGroup, c.n - t);
     // Forces a vertex of the group (lanes put back in vertex order).
     __m256d fv[kGroup];
@@ -532,6 +553,7 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   Acc512 acc{k.zero, k.zero, k.zero, k.zero, k.zero, k.zero};
   __m512d pe = k.zero;
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
+    prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp;
     const std::size_t rem = std::min(kGroup, c.n - t), comps = 3 * rem;
     // Positions of the 16 vertices, flat (6 registers), then one register an axis
