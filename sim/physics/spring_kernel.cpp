@@ -29,7 +29,7 @@ namespace {
 // faster at 100k triangles under load, 4-10 % slower where the data sits in L2/L3,
 // hence only from kPrefetchFrom vertices on). Prefetching changes no result.
 // Always inlined: GCC takes a function that only prefetches for pure and drops its calls.
-constexpr std::size_t kAhead = 4, kPrefetchFrom = 16384;
+constexpr std::size_t kAhead = 4;
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
   if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
@@ -234,8 +234,8 @@ struct Acc2 {
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
 // forces fa (x, y, z, 0 a vertex) regrouped to 3 a vertex.
 LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double* x0, const double* v0,
-                            const double* home, const double* ext, const double* mass,
-                            const double* stiff, double* x1, double* v1, const __m256d* grav, Acc2& acc) {
+                            const double* home, const double* ext, const double* mass, const double* stiff, double* x1,
+                            double* v1, const __m256d* grav, Acc2& acc) {
   const __m256d zero = _mm256_setzero_pd();
   const __m256d dt = _mm256_set1_pd(c.dt), damp = _mm256_set1_pd(c.damp), homeK = _mm256_set1_pd(c.homeK);
   const __m256d F[3] = {_mm256_blend_pd(fa[0], _mm256_permute4x64_pd(fa[1], 0x00), 0x8),
@@ -333,8 +333,8 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
     for (std::size_t q = 0; q < rem; q += 4) {
       const std::size_t t4 = t + q, rem4 = std::min<std::size_t>(4, rem - q), b = 3 * t4;
       if (rem4 == 4) {
-        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.mass + t4, c.stiffness + t4,
-                c.x1 + b, c.v1 + b, grav, acc);
+        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.mass + t4, c.stiffness + t4, c.x1 + b, c.v1 + b,
+                grav, acc);
         continue;
       }
       // The last 1–3 vertices through the same lanes, padded with massless zeros.

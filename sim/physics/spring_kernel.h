@@ -64,10 +64,13 @@ double springForces(Kernel kern, const SpringChunk& c);
 // positions and velocities 3 doubles a vertex.
 inline constexpr std::size_t kLanes = 8;
 inline constexpr std::size_t kGroup = 16;
+// From this many vertices on, the step prefetches the vertex arrays a few groups ahead
+// (the data no longer sits in L2/L3; below, the prefetches cost more than they save).
+inline constexpr std::size_t kPrefetchFrom = 16384;
 struct BlockStep {
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double* mass = nullptr;       // one per vertex (1/mass is derived: one stream fewer)
-  const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
+  const double* stiffness = nullptr;  // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
   const std::uint32_t* rankStart = nullptr;  // per block
   const std::uint32_t* rankX = nullptr;      // kLanes per rank
