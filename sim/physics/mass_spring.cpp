@@ -714,7 +714,6 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.v0 = raw(a.v0);
   bs.home = raw(w.home);
   bs.ext = raw(w.ext);
-  bs.invMass = w.invMass;
   bs.mass = w.mass;
   bs.stiffness = w.stiffness;
   bs.x1 = raw(a.x1);

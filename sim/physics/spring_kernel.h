@@ -59,14 +59,18 @@ double springForces(Kernel kern, const SpringChunk& c);
 // springs added since the last rebuild) on groups flagged in `extra` (and zeroes it),
 // and integrates:
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
-// x1 = x0 + dt·v1, live = (im ≠ 0). All arrays are whole (indexed by vertex);
+// x1 = x0 + dt·v1, im = 1/mass (0 where mass ≤ 0, as the cache's invMass),
+// live = (im ≠ 0). All arrays are whole (indexed by vertex);
 // positions and velocities 3 doubles a vertex.
 inline constexpr std::size_t kLanes = 8;
 inline constexpr std::size_t kGroup = 16;
+// From this many vertices on, the step prefetches the vertex arrays a few groups ahead
+// (the data no longer sits in L2/L3; below, the prefetches cost more than they save).
+inline constexpr std::size_t kPrefetchFrom = 16384;
 struct BlockStep {
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
-  const double *invMass = nullptr, *mass = nullptr;  // one per vertex
-  const double* stiffness = nullptr;                 // one per vertex: Σ k of its springs
+  const double* mass = nullptr;       // one per vertex (1/mass is derived: one stream fewer)
+  const double* stiffness = nullptr;  // one per vertex: Σ k of its springs
   double *x1 = nullptr, *v1 = nullptr;
   const std::uint32_t* rankStart = nullptr;  // per block
   const std::uint32_t* rankX = nullptr;      // kLanes per rank

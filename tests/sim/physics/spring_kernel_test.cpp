@@ -37,12 +37,13 @@ std::vector<Kernel> compiledKernels() {
   return out;
 }
 
-// A 50 x 50 grid (2601 vertices: the two-thread split applies) cut up by local edits
-// after its cache was built, pushed, moving, with gravity and a few external forces.
-// Filled in place: moving a State is a new layout (its cache would be rebuilt).
-void editedScene(Params& p, State& s) {
+// A cells x cells grid (50: 2601 vertices, the two-thread split applies) cut up by
+// local edits after its cache was built, pushed, moving, with gravity and a few
+// external forces. Filled in place: moving a State is a new layout (its cache would be
+// rebuilt).
+void editedScene(Params& p, State& s, int cells = 50) {
   p.tissue.gravity = Vec3(0.0, -2.0, -9810.0);
-  s = makeState(makeGrid(50, 50, 4.0), p.tissue);
+  s = makeState(makeGrid(cells, cells, 200.0 / cells), p.tissue);
   s.mesh.position(nearestVertex(s.mesh, Vec3(100, 100, 0))).z() -= 5.0;
   step(p, s, 1e-4);  // the cache exists: the edits below go through the journal
   std::mt19937 rng(5);
@@ -123,7 +124,7 @@ TEST(SpringKernel, EveryPathMatchesTheScalarStepOnAnEditedMesh) {
 // at both ends, springs added through the journal in f4) against the force pass, which
 // walks the CSR by lower vertex: v1 = v0 + dt·f(x0, v0)/m, x1 = x0 + dt·v1 on every
 // path, one and two threads, with new vertices past the last full group of 16.
-TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnEveryPath) {
+void expectStepMatchesForcePass(int cells) {
   constexpr double dt = 1e-4;
   for (Kernel k : compiledKernels()) {
     SCOPED_TRACE(std::string(detail::kernelName(k)));
@@ -133,7 +134,7 @@ TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnEveryPath) {
       Params p;
       p.threads = threads;
       State s;
-      editedScene(p, s);
+      editedScene(p, s, cells);
       ASSERT_NE(s.mesh.verticesSize() % detail::kGroup, 0u) << "want a partial last group";
       const std::vector<Vec3> f = forces(p, s);
       ASSERT_GT(s.cache.springs.size(), s.cache.nCsr);
@@ -155,6 +156,14 @@ TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnEveryPath) {
       EXPECT_LT(xErr, 1e-12);
     }
   }
+}
+
+TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnEveryPath) { expectStepMatchesForcePass(50); }
+
+// A mesh large enough for the kernels' prefetching (detail::kPrefetchFrom vertices).
+TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnALargeMesh) {
+  ASSERT_GE(131u * 131u, detail::kPrefetchFrom);
+  expectStepMatchesForcePass(130);
 }
 
 TEST(SpringKernel, ForcesAndMonitoredStepsAgreeAcrossPaths) {
