@@ -3,6 +3,8 @@
 // the front between the layers stays short and every strip comes off.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "sim/cutting/cutter.h"
 #include "sim/cutting/mesh_checks.h"
 #include "tests/sim/cutting/cut_test_meshes.h"
@@ -33,6 +35,7 @@ TEST(CutterFine, ThroughCutsOnAFineSlabFreeEveryStripWithShortFronts) {
   e.addObject(fineSlab());
   const double ys[] = {-5.3, -1.7, 2.15, 5.6};
   long cutBefore = 0, addedBefore = 0;
+  double wallsBefore = 0.0;
   for (int s = 0; s < 4; ++s) {
     SCOPED_TRACE(s);
     test::stroke(e, Vec3(-15, ys[s], -4), Vec3(15, ys[s] + 0.9, -4), Vec3(0, 0, -1), 100.0, 1000.0);
@@ -48,6 +51,13 @@ TEST(CutterFine, ThroughCutsOnAFineSlabFreeEveryStripWithShortFronts) {
     const double perTri = static_cast<double>(added) / static_cast<double>(cut);
     EXPECT_GT(perTri, 3.4);
     EXPECT_LT(perTri, 4.4);
+    // Side walls on both pieces over the whole cut: twice its area in its plane.
+    double walls = 0.0;
+    for (const auto& o : e.objects()) walls += test::areaOfKind(o.mesh, kSideWall);
+    // (Up to 1 % more: snapping moves the paths off the blade's plane a little.)
+    const double plane = 2.0 * 5.0 * 24.0 * std::hypot(1.0, 0.9 / 30.0);
+    EXPECT_NEAR(walls - wallsBefore, plane, 0.01 * plane);
+    wallsBefore = walls;
     cutBefore = st.trianglesCut;
     addedBefore = st.trianglesAdded;
     EXPECT_EQ(st.fillFailures, 0);
@@ -56,6 +66,24 @@ TEST(CutterFine, ThroughCutsOnAFineSlabFreeEveryStripWithShortFronts) {
   // The cut-in path around the slab's side (about a dozen vertices) is the longest
   // front; a front that stays closed grows by one vertex per step (hundreds).
   EXPECT_LE(e.stats().longestFront, 24);
+}
+
+// Within the snapping distance of a row of mesh edges the path snaps onto their vertices
+// all the way, and the tips end on the far side's edge: the walk around it runs down the
+// front between the layers (a cut-out loop without area), which must still free the strip.
+TEST(CutterFine, ThroughCutAlongMeshEdgesFreesItsStrip) {
+  CutEngine e;
+  e.addObject(fineSlab());
+  const double y = -8.0 + 10.0 * 16.0 / 36.0 + 0.02;  // 0.02 mm off a grid line
+  test::stroke(e, Vec3(-15, y, -4), Vec3(15, y, -4), Vec3(0, 0, -1), 100.0, 1000.0);
+  EXPECT_EQ(e.stats().separations, 1);
+  ASSERT_EQ(e.objects().size(), 2u);
+  expectClosedPieces(e, "after the stroke");
+  double walls = 0.0;
+  for (const auto& o : e.objects()) walls += test::areaOfKind(o.mesh, kSideWall);
+  EXPECT_NEAR(walls, 2.0 * 5.0 * 24.0, 0.01 * 240.0);
+  EXPECT_LE(e.stats().longestFront, 24);
+  EXPECT_EQ(e.stats().fillFailures, 0);
 }
 
 }  // namespace
