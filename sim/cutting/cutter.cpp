@@ -208,7 +208,7 @@ struct CutEngine::Impl {
   std::vector<collision::TriangleBvh> bvhs;
   std::vector<char> moved;                            // every vertex may have moved
   std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
-  long motionCount = 0;                               // object()/verticesMoved calls: tracks re-anchor to the tissue
+  long motionCount = 0;  // object()/verticesMoved calls: tracks re-anchor to the tissue
   std::vector<collision::SurfaceHit> scratchHits;
   std::vector<Face> scratchFaces;
   int nextId = 0;
@@ -827,7 +827,7 @@ struct CutEngine::Impl {
   // when its thinnest triangle is `thr` thick, or half the shortest edge of the half
   // (no triangle on an edge is thicker than the edge, and deferring keeps the edges:
   // the front would only grow). Long fronts are opened whatever their quality short of
-  // degenerate: growing costs O(front) per step and the cut-out O(front²).
+  // degenerate: growing costs O(front) per step, and the cut-out caps it with one fan.
   static bool halvesOk(const SurfaceMesh& m, Vertex N, Vertex v, const std::vector<Vertex>& chain, double thr) {
     if (m.findEdge(N, chain.back()).isValid()) return false;
     std::vector<Vertex> half{N, v};
