@@ -579,12 +579,14 @@ struct CutEngine::Impl {
       tr.chain = std::move(chain);
       tr.tip = N;
       tr.tipDepth = depthN;
+      stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
     };
     if (tr.tunnel) {
       // Nothing opens until both layers have a path that can (two edges each).
       tr.chain.insert(tr.chain.begin(), v);
       tr.tip = N;
       tr.tipDepth = depthN;
+      stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
       if (P && P->tunnel && tunnelReady(tr) && tunnelReady(*P)) openTunnel(tr, *P);
       return true;
     }
@@ -611,7 +613,10 @@ struct CutEngine::Impl {
     // If neither gives triangles thicker than half the snapping distance (the blade has
     // hardly moved off the front, e.g. right after a slide-in, or moves along itself),
     // the front grows instead and opens with a later step.
-    enum class Fill { Fan, Apex, Defer } fill = Fill::Fan;
+    //  Halves - a longer front whose fan from N has a needle (its first edge runs on along
+    //         the cut, as the cut-in path after a slide-in does on a fine mesh): each half
+    //         of the opening, N ... chain.back() and its copy, triangulated on its own.
+    enum class Fill { Fan, Apex, Halves, Defer } fill = Fill::Fan;
     Vec3 apexPos = Vec3::Zero();
     if (walls) {
       const Vec3 pv = m.position(v), pN = m.position(N);
@@ -652,6 +657,7 @@ struct CutEngine::Impl {
       const bool apexOk = qApex >= thr;
       if (paired || chain.size() > 1) {
         fill = fanOk ? Fill::Fan : (apexOk && chain.size() == 1 ? Fill::Apex : Fill::Defer);
+        if (fill == Fill::Defer && chain.size() > 1 && halvesOk(m, N, v, chain, thr)) fill = Fill::Halves;
       } else {
         // Mid-stroke the bottom vertex is reused over about three path steps (fewer
         // triangles per cut triangle on coarse meshes); the last step of a cut puts the
@@ -734,7 +740,9 @@ struct CutEngine::Impl {
       // A fan from N: the new front is the edge N - chain.back() (any other
       // triangulation would leave no edge there, and the next step would lose the front).
       const int kind = P ? kSideWall : kGrooveWall;
-      if (!fillFanAt(tr.object, N, kind) && !fillHoleAt(tr.object, N, kind)) ++stats.fillFailures;
+      const bool filled =
+          fill == Fill::Halves ? fillHalvesAt(tr.object, N, chain.back(), kind) : fillFanAt(tr.object, N, kind);
+      if (!filled && !fillHoleAt(tr.object, N, kind)) ++stats.fillFailures;
       next = {chain.back()};
       if (P && P->tip == chain.back()) P->chain = {N};
     }
@@ -814,6 +822,70 @@ struct CutEngine::Impl {
     return true;
   }
 
+  // Each half of the opening a longer front makes (N, v, chain..., and the copies' side)
+  // closes on its own, joined by the edge N - chain.back(): the new front. Good enough
+  // when its thinnest triangle is `thr` thick, or half the shortest edge of the half
+  // (no triangle on an edge is thicker than the edge, and deferring keeps the edges:
+  // the front would only grow). Long fronts are opened whatever their quality short of
+  // degenerate: growing costs O(front) per step, and the cut-out caps it with one fan.
+  static bool halvesOk(const SurfaceMesh& m, Vertex N, Vertex v, const std::vector<Vertex>& chain, double thr) {
+    if (m.findEdge(N, chain.back()).isValid()) return false;
+    std::vector<Vertex> half{N, v};
+    half.insert(half.end(), chain.begin(), chain.end());
+    double shortest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i + 1 < half.size(); ++i)
+      shortest = std::min(shortest, (m.position(half[i + 1]) - m.position(half[i])).norm());
+    const double need = half.size() > kLongFront ? 1e-3 * thr : std::min(thr, 0.5 * shortest);
+    return loopQuality(m, half) >= need;
+  }
+  static constexpr std::size_t kLongFront = 24;
+
+  // Closes the boundary loop through a and b (a cut's opening) as two polygons joined by
+  // the new edge (a, b), each triangulated for its thickest thinnest triangle. False
+  // (mesh unchanged) when that is not possible.
+  bool fillHalvesAt(int obj, Vertex a, Vertex b, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    const Edge be = boundaryEdgeAt(m, a);
+    if (!be.isValid() || m.findEdge(a, b).isValid()) return false;
+    std::vector<Vertex> loop = boundaryLoop(m, be, 4 * kLongFront + 16);
+    const auto ia = std::find(loop.begin(), loop.end(), a);
+    if (ia == loop.end()) return false;
+    std::rotate(loop.begin(), ia, loop.end());
+    const auto ib = std::find(loop.begin(), loop.end(), b);
+    if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) return false;
+    // Each half starts after a loop edge, so that its first triangle (on the closing
+    // edge: last vertex, first) takes its orientation from the face already there.
+    std::vector<Vertex> h1(loop.begin() + 1, ib + 1), h2(ib + 1, loop.end());
+    h1.push_back(a);
+    h2.insert(h2.end(), {a, b});
+    std::vector<Face> added;
+    for (const auto* h : {&h1, &h2}) {
+      std::vector<Vec3> pts;
+      for (Vertex x : *h) pts.push_back(m.position(x));
+      std::vector<std::array<int, 3>> tris;
+      const double q = triangulate(
+          pts,
+          [&](int i, int j) {
+            const Vertex x = (*h)[static_cast<std::size_t>(i)], y = (*h)[static_cast<std::size_t>(j)];
+            return x != y && !m.findEdge(x, y).isValid();
+          },
+          tris);
+      bool ok = q > -std::numeric_limits<double>::infinity();
+      for (std::size_t t = 0; ok && t < tris.size(); ++t) {
+        const auto& tri = tris[t];
+        const Face f = addTriangle(obj, (*h)[static_cast<std::size_t>(tri[0])], (*h)[static_cast<std::size_t>(tri[1])],
+                                   (*h)[static_cast<std::size_t>(tri[2])], kind);
+        ok = f.isValid();
+        if (ok) added.push_back(f);
+      }
+      if (!ok) {
+        for (Face g : added) m.deleteFace(g);
+        return false;
+      }
+    }
+    return true;
+  }
+
   // Best smallest triangle height for closing a loop of vertices (copies listed as
   // their originals: a diagonal is allowed only where no edge exists yet).
   static double loopQuality(const SurfaceMesh& m, const std::vector<Vertex>& ids) {
@@ -845,6 +917,8 @@ struct CutEngine::Impl {
     return longest > 0 ? (b - a).cross(c - a).norm() / longest : 0.0;
   }
 
+  static constexpr int kFanApexes = 32;
+
   // Triangulation of a closed polygon maximising the smallest triangle height (dynamic
   // programming, O(n³)); triangles in pre-order from the edge (n-1, 0), so that each
   // shares an edge with one listed before it. Returns the smallest height, or -inf.
@@ -855,10 +929,12 @@ struct CutEngine::Impl {
     const double inf = std::numeric_limits<double>::infinity();
     if (n < 3) return -inf;
     if (n > 20) {
-      // Long loops (a long unopened front): the best fan, O(n²).
+      // Long loops (a long unopened front): the best fan from at most kFanApexes evenly
+      // spread apexes, O(n) rather than O(n²) over all of them.
       double bestQ = -inf;
       int bestK = -1;
-      for (int k = 0; k < n; ++k) {
+      const int stride = std::max(1, n / kFanApexes);
+      for (int k = 0; k < n; k += stride) {
         double q = inf;
         for (int s = 1; s + 1 < n && q > bestQ; ++s) {
           const int i = (k + s) % n, j = (k + s + 1) % n;
@@ -1626,22 +1702,24 @@ struct CutEngine::Impl {
     loop.push_back(B.tip);
     for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
     // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
-    {
-      // Both sides get this loop's shape: refuse to make slivers.
-      std::vector<Vec3> pts;
-      for (Vertex x : loop) pts.push_back(m.position(x));
-      const double q = loopQuality(m, loop);
-      if (dbg()) std::cerr << "close: loop of " << loop.size() << " quality " << q << "\n";
-      // The caps are the cut's cross-section beyond the tips: near a rounded or moved
-      // rim that is a thin crescent whatever the triangulation, and refusing it leaves
-      // the piece attached. Only a degenerate loop is refused.
-      if (!(q > 1e-3 * p.snapDistance)) return false;
-    }
     std::vector<Edge> cuts;
     for (std::size_t i = 0; i < loop.size(); ++i) {
       const Edge e = m.findEdge(loop[i], loop[(i + 1) % loop.size()]);
       if (!e.isValid()) return false;
       cuts.push_back(e);
+    }
+    {
+      // Both sides get this loop's shape: refuse to make slivers.
+      const double q = loopQuality(m, loop);
+      if (dbg()) std::cerr << "close: loop of " << loop.size() << " quality " << q << "\n";
+      // The caps are the cut's cross-section beyond the tips: near a rounded or moved
+      // rim that is a thin crescent whatever the triangulation, and refusing it leaves
+      // the piece attached. Only a degenerate loop is refused, unless the tips are on
+      // the far side already (snapped onto its edge: the walk runs down the rung).
+      if (!(q > 1e-3 * p.snapDistance)) {
+        if (A.chain.size() != 1 || !openRung(A.object, loop)) return false;
+        cuts.pop_back();  // gone with its faces
+      }
     }
     std::vector<Vertex> touched = loop;
     for (Vertex x : loop)
@@ -1663,6 +1741,25 @@ struct CutEngine::Impl {
       for (Vertex x : touched) traceThin(A.object, {x}, "close");
     for (Vertex x : touched) touch(A.object, {x});
     for (Vertex x : touched) unpinch(A.object, x);
+    return true;
+  }
+
+  // The cut-out loop (front rung loop.back() - loop.front(), and a walk along it) has no
+  // area: the two wall triangles on the rung go, so that each side's hole reaches from
+  // their far corner to the walk. False (mesh unchanged) when those holes are no better.
+  bool openRung(int obj, const std::vector<Vertex>& loop) {
+    SurfaceMesh& m = meshOf(obj);
+    const Edge rung = m.findEdge(loop.back(), loop.front());
+    if (!rung.isValid() || m.isBoundary(rung)) return false;
+    const std::array<Face, 2> walls{m.face(rung, 0), m.face(rung, 1)};
+    for (Face f : walls) {
+      std::vector<Vertex> hole{m.oppositeVertex(f, rung)};
+      if (std::find(loop.begin(), loop.end(), hole[0]) != loop.end()) return false;
+      hole.insert(hole.end(), loop.begin(), loop.end());
+      if (!(loopQuality(m, hole) > 1e-3 * p.snapDistance)) return false;
+    }
+    for (Face f : walls) m.deleteFace(f);
+    bvhs[static_cast<std::size_t>(indexOf(obj))].removeFaces(m, walls);
     return true;
   }
 
@@ -1792,6 +1889,7 @@ struct CutEngine::Impl {
           a.chain.assign(path.rbegin() + 1, path.rend());
           a.chain.push_back(sB);
           b.chain.assign(path.begin(), path.end());
+          stats.longestFront = std::max(stats.longestFront, static_cast<long>(a.chain.size()) + 1);
         }
         a.visited.forEach([&](Vertex x) { b.visited.insert(x); });
         return;

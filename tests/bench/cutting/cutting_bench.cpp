@@ -46,13 +46,15 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 //   stroke_us_per_cut_triangle  thread CPU time of the whole strokes (everything: queries,
 //                               samples that changed nothing, separation) / trianglesCut;
 //   separation_ms               CutStats::separationSeconds (finding and splitting off
-//                               freed pieces).
+//                               freed pieces);
+//   separations, longest_front  CutStats: pieces freed (4 for the through-cut), most
+//                               vertices a cut's front had (tip to the other layer).
 void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int kind) {
   // 0: cut-through, 1: groove 2 mm deep, 2: shallow groove 0.4 mm deep (the hook's
   // usual depth: long, low walls), 3: groove deepening through the bottom mid-stroke.
   const double tipZ = kind == 0 ? -4.0 : (kind == 2 ? 2.1 : 0.5);
   double us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0, strokeUs = 0, sepMs = 0;
-  long cut = 0;
+  long cut = 0, separations = 0, longestFront = 0;
   for (auto _ : state) {
     state.PauseTiming();
     ld::cutting::CutEngine e;
@@ -73,6 +75,8 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
     const auto& st = e.stats();
     us = st.remeshMicrosPerCutTriangle();
     cut = st.trianglesCut;
+    separations = st.separations;
+    longestFront = st.longestFront;
     strokeUs = strokeSeconds * 1e6 / static_cast<double>(std::max(1L, st.trianglesCut));
     sepMs = st.separationSeconds * 1e3;
     perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
@@ -97,6 +101,8 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
   state.counters["separation_ms"] = sepMs;
   state.counters["triangles_added_per_cut_triangle"] = perTri;
   state.counters["triangles_cut"] = static_cast<double>(cut);
+  state.counters["separations"] = static_cast<double>(separations);
+  state.counters["longest_front"] = static_cast<double>(longestFront);
 }
 
 void BM_Remesh(benchmark::State& state) {
