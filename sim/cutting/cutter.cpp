@@ -451,13 +451,60 @@ struct CutEngine::Impl {
     return groups;
   }
 
+  // The same grouping without allocation (hot path: every extension): labels the faces
+  // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in the order fanGroups
+  // lists its groups. Returns the number of groups.
+  int fanLabels(const SurfaceMesh& m, Vertex x, std::span<const Edge> cuts) {
+    m.faces(x, fanFaces);
+    const std::size_t n = fanFaces.size();
+    fanParent.resize(n);
+    fanLabel.resize(n);
+    std::iota(fanParent.begin(), fanParent.end(), 0);
+    auto find = [&](int i) {
+      while (fanParent[static_cast<std::size_t>(i)] != i) i = fanParent[static_cast<std::size_t>(i)];
+      return i;
+    };
+    auto index = [&](Face f) {
+      return static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
+    };
+    for (Edge e : m.edges(x)) {
+      if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
+      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
+      if (!f0.isValid() || !f1.isValid()) continue;
+      const int r0 = find(index(f0)), r1 = find(index(f1));
+      if (r0 != r1) fanParent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
+    }
+    // A root is the smallest index of its group, so groups are met in fanGroups' order.
+    int count = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const int r = find(static_cast<int>(i));
+      fanLabel[i] = r == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(r)];
+    }
+    return count;
+  }
+
+  // The faces labelled g by the last fanLabels, in its order.
+  std::span<const Face> fanOf(int g) {
+    fanPick.clear();
+    for (std::size_t i = 0; i < fanFaces.size(); ++i)
+      if (fanLabel[i] == g) fanPick.push_back(fanFaces[i]);
+    return fanPick;
+  }
+
   // Splits x so that every group of faces (separated by `cuts`) gets its own vertex.
   std::vector<Vertex> splitByGroups(int obj, Vertex x, const std::vector<Edge>& cuts) {
     SurfaceMesh& m = meshOf(obj);
     std::vector<Vertex> made;
-    auto groups = fanGroups(m, x, cuts);
-    for (std::size_t g = 1; g < groups.size(); ++g) {
-      const Vertex nv = m.splitVertex(x, groups[g]);
+    const int groups = fanLabels(m, x, cuts);
+    if (groups < 2) return made;
+    // Every group's faces first: the splits change the faces around x.
+    fanGroupsBuf.resize(static_cast<std::size_t>(groups));
+    for (int g = 1; g < groups; ++g) {
+      const auto fan = fanOf(g);
+      fanGroupsBuf[static_cast<std::size_t>(g)].assign(fan.begin(), fan.end());
+    }
+    for (int g = 1; g < groups; ++g) {
+      const Vertex nv = m.splitVertex(x, fanGroupsBuf[static_cast<std::size_t>(g)]);
       if (!nv.isValid()) continue;
       if (tissue(obj)) physics::initVertexCopy(m, nv, x, p.tissue);
       made.push_back(nv);
@@ -472,9 +519,14 @@ struct CutEngine::Impl {
     if (es.empty()) return true;
     int twice = 0;
     Edge start = es.front();
+    bool startOnBoundary = m.isBoundary(start);
     for (Edge e : es) {
-      twice += (m.face(e, 0).isValid() ? 1 : 0) + (m.face(e, 1).isValid() ? 1 : 0);
-      if (m.isBoundary(e) && !m.isBoundary(start)) start = e;
+      const bool boundary = m.isBoundary(e);
+      twice += (m.face(e, 0).isValid() ? 1 : 0) + (boundary ? 0 : 1);
+      if (boundary && !startOnBoundary) {
+        start = e;
+        startOnBoundary = true;
+      }
     }
     const int total = twice / 2;
     Face f = m.face(start, 0);
@@ -483,13 +535,13 @@ struct CutEngine::Impl {
     int count = 0;
     while (count <= total) {
       ++count;
-      Edge next;
-      for (Edge g : m.edges(f))
-        if (g != e && (m.vertex(g, 0) == x || m.vertex(g, 1) == x)) {
-          next = g;
-          break;
-        }
-      if (!next.isValid() || next == start) break;
+      // The two edges of f at x are the one leaving x and the one arriving at it.
+      const int k = m.localIndex(f, x);
+      if (k < 0) break;
+      const auto& fe = m.edges(f);
+      const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
+      const Edge next = out == e ? in : out;
+      if (next == start) break;
       const Face g = m.otherFace(next, f);
       if (!g.isValid()) break;
       e = next;
@@ -505,41 +557,51 @@ struct CutEngine::Impl {
     stats.unpinched += static_cast<long>(made.size());
   }
 
-  Face addTriangle(int obj, Vertex a, Vertex b, Vertex c, int kind) {
-    SurfaceMesh& m = meshOf(obj);
+  // The face kind property, looked up once per edit instead of once per triangle.
+  static mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) { return m.faceProperty<int>(kFaceKindProp, kSurface); }
+
+  static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
     Face f = m.addFace(a, b, c);
     if (!f.isValid()) f = m.addFace(a, c, b);
-    if (f.isValid()) m.faceProperty<int>(kFaceKindProp, kSurface)[f] = kind;
+    if (f.isValid()) kinds[f] = kind;
     return f;
+  }
+
+  Face addTriangle(int obj, Vertex a, Vertex b, Vertex c, int kind) {
+    SurfaceMesh& m = meshOf(obj);
+    auto kinds = kindsOf(m);
+    return addTriangle(m, kinds, a, b, c, kind);
   }
 
   // Fills the quad hole (x, n, y, o) with two triangles around o (apex invalid) or
   // four around a new vertex at apexPos. Returns the apex used, invalid on failure.
   Vertex fillQuad(int obj, Vertex x, Vertex n, Vertex y, Vertex o, bool newApex, const Vec3& apexPos, int kind) {
     SurfaceMesh& m = meshOf(obj);
-    std::vector<Face> added;
+    auto kinds = kindsOf(m);
+    std::array<Face, 4> added{};
+    std::size_t nAdded = 0;
     auto rollback = [&]() {
-      for (Face f : added) m.deleteFace(f);
-      added.clear();
+      for (std::size_t i = 0; i < nAdded; ++i) m.deleteFace(added[i]);
+      nAdded = 0;
     };
     if (!newApex && !m.findEdge(n, o).isValid()) {
       for (auto tri : {std::array<Vertex, 3>{x, n, o}, std::array<Vertex, 3>{n, y, o}}) {
-        const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+        const Face f = addTriangle(m, kinds, tri[0], tri[1], tri[2], kind);
         if (!f.isValid()) break;
-        added.push_back(f);
+        added[nAdded++] = f;
       }
-      if (added.size() == 2) return o;
+      if (nAdded == 2) return o;
       rollback();
     }
     const Vec3 bestPos = apexPos;
     const Vertex B = m.addVertex(bestPos);
     for (auto tri : {std::array<Vertex, 3>{x, n, B}, std::array<Vertex, 3>{n, y, B}, std::array<Vertex, 3>{y, o, B},
                      std::array<Vertex, 3>{o, x, B}}) {
-      const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+      const Face f = addTriangle(m, kinds, tri[0], tri[1], tri[2], kind);
       if (!f.isValid()) break;
-      added.push_back(f);
+      added[nAdded++] = f;
     }
-    if (added.size() == 4) {
+    if (nAdded == 4) {
       m.vertexProperty<std::uint8_t>(kApexProp, 0)[B] = 1;
       if (tissue(obj)) {
         physics::initVertexCopy(m, B, n, p.tissue);
@@ -575,8 +637,9 @@ struct CutEngine::Impl {
     if (N == v) return true;
     Track* P = trackById(tr.partner);
     tr.prevTip = v;
-    auto advanceTo = [&](std::vector<Vertex> chain) {
-      tr.chain = std::move(chain);
+    // (assign: the chain keeps its buffer)
+    auto advanceTo = [&](std::initializer_list<Vertex> chain) {
+      tr.chain.assign(chain);
       tr.tip = N;
       tr.tipDepth = depthN;
     };
@@ -593,7 +656,9 @@ struct CutEngine::Impl {
       advanceTo({v});
       return true;
     }
-    const std::vector<Vertex> chain = tr.chain;
+    // Read before advanceTo replaces it (only this track's chain changes here).
+    const std::vector<Vertex>& chain = tr.chain;
+    const std::size_t chainLen = chain.size();
     const Vertex o = chain.front();
     const Edge eOut = m.findEdge(v, N), eFront = m.findEdge(v, o);
     if (!eOut.isValid() || !eFront.isValid() || std::find(chain.begin(), chain.end(), N) != chain.end()) {
@@ -660,10 +725,12 @@ struct CutEngine::Impl {
         // ... while the fan's triangle keeps a fair smallest angle (a low groove bottom
         // far back makes needles: a shallow groove gets bottom vertices more often).
         const Vec3 po = m.position(o);
-        const double fanAngle = minAngle(pv, pN, po);
-        const bool reuse =
-            apexProp[o] != 0 && (depthN - po).norm() < spacing &&
-            (fanAngle >= kMinWallAngle || fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos)));
+        auto fanAngleOk = [&] {
+          const double fanAngle = minAngle(pv, pN, po);
+          return fanAngle >= kMinWallAngle ||
+                 fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos));
+        };
+        const bool reuse = apexProp[o] != 0 && (depthN - po).norm() < spacing && fanAngleOk();
         if (reuse && fanOk)
           fill = Fill::Fan;
         else if (apexOk)
@@ -682,16 +749,16 @@ struct CutEngine::Impl {
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
-        std::vector<Vertex> grown{v};
-        grown.insert(grown.end(), chain.begin(), chain.end());
-        advanceTo(grown);
+        tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
+        tr.tip = N;
+        tr.tipDepth = depthN;
         return true;
       }
     }
     const std::size_t facesBefore = m.facesSize();
-    auto groups = fanGroups(m, v, {eOut, eFront});
+    const std::array<Edge, 2> cutsAtV{eOut, eFront};
     Vertex vn;
-    if (groups.size() == 2) vn = m.splitVertex(v, groups[1]);
+    if (fanLabels(m, v, cutsAtV) == 2) vn = m.splitVertex(v, fanOf(1));
     if (!vn.isValid()) {
       // Cannot open here (should not happen on a manifold mesh): leave the slit closed.
       advanceTo({v});
@@ -699,9 +766,10 @@ struct CutEngine::Impl {
     }
     if (tissue(tr.object)) physics::initVertexCopy(m, vn, v, p.tissue);
     mark(tr, vn);
-    std::vector<Vertex> touched{v, vn, N};
+    std::vector<Vertex>& touched = extendTouched;
+    touched.assign({v, vn, N});
     // A longer front (a cut-in path, or a front through a wall apex) opens as well.
-    for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+    for (std::size_t i = 0; i + 1 < chainLen; ++i) {
       touched.push_back(chain[i]);
       const Edge e = m.findEdge(chain[i], chain[i + 1]);
       if (!e.isValid()) continue;
@@ -710,24 +778,26 @@ struct CutEngine::Impl {
         touched.push_back(x);
       }
     }
-    touched.push_back(chain.back());
-    std::vector<Vertex> next{v};
-    if (walls && chain.size() == 1) {
+    const Vertex chainBack = chain.back();
+    touched.push_back(chainBack);
+    std::array<Vertex, 2> next{v, Vertex()};
+    std::size_t nextLen = 1;
+    if (walls && chainLen == 1) {
       const Vertex apex =
           fillQuad(tr.object, vn, N, v, o, fill == Fill::Apex, apexPos, paired ? kSideWall : kGrooveWall);
       if (!apex.isValid()) {
         ++stats.fillFailures;
       } else if (apex == o) {
-        next = {o};
+        next[0] = o;
         if (P && P->tip == o) P->chain = {N};
       } else {
         mark(tr, apex);
         touched.push_back(apex);
+        next[0] = apex;
         if (P && P->tip == o) {
-          next = {apex, o};
+          next[1] = o;
+          nextLen = 2;
           P->chain = {apex, N};
-        } else {
-          next = {apex};
         }
       }
     } else if (walls) {
@@ -735,10 +805,13 @@ struct CutEngine::Impl {
       // triangulation would leave no edge there, and the next step would lose the front).
       const int kind = P ? kSideWall : kGrooveWall;
       if (!fillFanAt(tr.object, N, kind) && !fillHoleAt(tr.object, N, kind)) ++stats.fillFailures;
-      next = {chain.back()};
-      if (P && P->tip == chain.back()) P->chain = {N};
+      next[0] = chainBack;
+      if (P && P->tip == chainBack) P->chain = {N};
     }
-    advanceTo(next);
+    if (nextLen == 2)
+      advanceTo({next[0], next[1]});
+    else
+      advanceTo({next[0]});
     if (dbg()) {
       for (Vertex x : touched)
         if (m.isValid(x))
@@ -747,7 +820,7 @@ struct CutEngine::Impl {
             const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
             if (h < 0.25 * p.snapDistance && f.idx() >= facesBefore)
               std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill)
-                        << " chain=" << chain.size() << " paired=" << paired << "\n";
+                        << " chain=" << chainLen << " paired=" << paired << "\n";
           }
     }
     for (Vertex x : touched) touch(tr.object, {x});
@@ -755,7 +828,7 @@ struct CutEngine::Impl {
     if (sliverTrace())
       for (Vertex x : touched)
         traceThin(tr.object, {x},
-                  fill == Fill::Apex ? "extend/apex" : (chain.size() > 1 ? "extend/chain" : "extend/fan"));
+                  fill == Fill::Apex ? "extend/apex" : (chainLen > 1 ? "extend/chain" : "extend/fan"));
     return true;
   }
 
@@ -1453,10 +1526,12 @@ struct CutEngine::Impl {
     SurfaceMesh& m = meshOf(tr.object);
     const Vec3 from = m.position(tr.tip);
     Vec3 fallback = Vec3::UnitZ();
-    {
-      const auto around = m.faces(tr.tip);
-      if (!around.empty()) fallback = rawNormal(m, around.front()).normalized();
-    }
+    // The first face around the tip (SurfaceMesh::faces order), without the list.
+    for (Edge e : m.edges(tr.tip))
+      if (const Face f = m.face(e, 0).isValid() ? m.face(e, 0) : m.face(e, 1); f.isValid()) {
+        fallback = rawNormal(m, f).normalized();
+        break;
+      }
     const Vec3 n = sweepNormal(from, h.point, bladeDir, fallback);
     bool ok = true;
     if (n.isZero()) {
@@ -2080,6 +2155,11 @@ struct CutEngine::Impl {
   std::vector<Deep> deepBuf;
   int splitting = 0;
   std::vector<Face> walkFaces;
+  // Fan splits (fanLabels, splitByGroups) and extend's vertex list.
+  std::vector<Face> fanFaces, fanPick;
+  std::vector<int> fanParent, fanLabel;
+  std::vector<std::vector<Face>> fanGroupsBuf;
+  std::vector<Vertex> extendTouched;
 
   std::vector<std::pair<int, Vertex>> dirtyWork;
   // Safety net: no vertex around an edit may join two fans.
