@@ -241,7 +241,14 @@ struct CutEngine::Impl {
 
   // ---- physics hooks ---------------------------------------------------------------
   // Vertices edited in this sample, checked for pinches at its end (safety net).
-  std::vector<std::pair<int, Vertex>> dirty;
+  struct Dirty {
+    int obj;
+    Vertex v;
+    bool fanChecked = false;  // found one fan after this edit (extend checks its own)
+    std::uint32_t seq = 0;    // edit order (fixPinches)
+    Dirty(int o, Vertex x) : obj(o), v(x) {}
+  };
+  std::vector<Dirty> dirty;
 
   void touch(int obj, std::initializer_list<Vertex> vs) {
     for (Vertex v : vs)
@@ -561,8 +568,17 @@ struct CutEngine::Impl {
   static mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) { return m.faceProperty<int>(kFaceKindProp, kSurface); }
 
   static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
+    // A face running a -> b already rules out (a, b, c): try the other orientation first
+    // (the same result, without the failed attempt).
+    bool flip = false;
+    if (const Edge ab = m.findEdge(a, b); ab.isValid()) {
+      const auto& fv = m.vertices(m.face(ab, 0));
+      const int i = m.localIndex(m.face(ab, 0), a);
+      flip = i >= 0 && fv[static_cast<std::size_t>((i + 1) % 3)] == b;
+    }
+    if (flip) std::swap(b, c);
     Face f = m.addFace(a, b, c);
-    if (!f.isValid()) f = m.addFace(a, c, b);
+    if (!f.isValid() && !flip) f = m.addFace(a, c, b);
     if (f.isValid()) kinds[f] = kind;
     return f;
   }
@@ -819,16 +835,21 @@ struct CutEngine::Impl {
             const auto& fv = m.vertices(f);
             const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
             if (h < 0.25 * p.snapDistance && f.idx() >= facesBefore)
-              std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill)
-                        << " chain=" << chainLen << " paired=" << paired << "\n";
+              std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill) << " chain=" << chainLen
+                        << " paired=" << paired << "\n";
           }
     }
+    const std::size_t dirtyBefore = dirty.size();
     for (Vertex x : touched) touch(tr.object, {x});
+    const long unpinchedBefore = stats.unpinched;
     for (Vertex x : touched) unpinch(tr.object, x);
+    // Checked here and nothing split: the safety net need not walk these fans again
+    // unless a later edit lists them.
+    if (stats.unpinched == unpinchedBefore)
+      for (std::size_t i = dirtyBefore; i < dirty.size(); ++i) dirty[i].fanChecked = true;
     if (sliverTrace())
       for (Vertex x : touched)
-        traceThin(tr.object, {x},
-                  fill == Fill::Apex ? "extend/apex" : (chainLen > 1 ? "extend/chain" : "extend/fan"));
+        traceThin(tr.object, {x}, fill == Fill::Apex ? "extend/apex" : (chainLen > 1 ? "extend/chain" : "extend/fan"));
     return true;
   }
 
@@ -2161,27 +2182,37 @@ struct CutEngine::Impl {
   std::vector<std::vector<Face>> fanGroupsBuf;
   std::vector<Vertex> extendTouched;
 
-  std::vector<std::pair<int, Vertex>> dirtyWork;
+  std::vector<Dirty> dirtyWork;
   // Safety net: no vertex around an edit may join two fans.
   void fixPinches() {
     dirtyWork.clear();
     std::swap(dirtyWork, dirty);  // both keep their capacity
-    // An edit touches a vertex several times: check each once.
-    std::sort(dirtyWork.begin(), dirtyWork.end(), [](const auto& a, const auto& b) {
-      return a.first != b.first ? a.first < b.first : a.second.idx() < b.second.idx();
+    // An edit touches a vertex several times: check each once, unless its last edit
+    // already found it one fan (the order of edits is kept within a vertex).
+    for (std::size_t i = 0; i < dirtyWork.size(); ++i) dirtyWork[i].seq = static_cast<std::uint32_t>(i);
+    std::sort(dirtyWork.begin(), dirtyWork.end(), [](const Dirty& a, const Dirty& b) {
+      if (a.obj != b.obj) return a.obj < b.obj;
+      return a.v.idx() != b.v.idx() ? a.v.idx() < b.v.idx() : a.seq < b.seq;
     });
-    dirtyWork.erase(std::unique(dirtyWork.begin(), dirtyWork.end()), dirtyWork.end());
-    for (const auto& [obj, v] : dirtyWork) {
-      if (indexOf(obj) < 0) continue;
-      SurfaceMesh& m = meshOf(obj);
-      if (!m.isValid(v)) continue;
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < dirtyWork.size(); ++i) {
+      if (kept > 0 && dirtyWork[kept - 1].obj == dirtyWork[i].obj && dirtyWork[kept - 1].v == dirtyWork[i].v)
+        dirtyWork[kept - 1].fanChecked = dirtyWork[i].fanChecked;
+      else
+        dirtyWork[kept++] = dirtyWork[i];
+    }
+    dirtyWork.resize(kept, Dirty(-1, Vertex()));
+    for (const Dirty& d : dirtyWork) {
+      if (d.fanChecked || indexOf(d.obj) < 0) continue;
+      SurfaceMesh& m = meshOf(d.obj);
+      if (!m.isValid(d.v)) continue;
       // Every edit lists the vertices whose fans it changed (the ends of a duplicated
       // edge are on the cut, hence listed too): their neighbours need no check.
-      if (!singleFan(m, v)) unpinch(obj, v);
+      if (!singleFan(m, d.v)) unpinch(d.obj, d.v);
     }
-    for (const auto& [obj, v] : dirtyWork) {
-      if (indexOf(obj) < 0 || !meshOf(obj).isValid(v)) continue;
-      improveAround(obj, v);
+    for (const Dirty& d : dirtyWork) {
+      if (indexOf(d.obj) < 0 || !meshOf(d.obj).isValid(d.v)) continue;
+      improveAround(d.obj, d.v);
     }
   }
 
