@@ -429,38 +429,16 @@ struct CutEngine::Impl {
 
   // ---- fans ---------------------------------------------------------------------------
   // Faces around x grouped by connection through edges at x that are not in `cuts`.
-  static std::vector<std::vector<Face>> fanGroups(const SurfaceMesh& m, Vertex x, const std::vector<Edge>& cuts) {
-    const std::vector<Face> around = m.faces(x);
-    std::vector<int> parent(around.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&](int i) {
-      while (parent[static_cast<std::size_t>(i)] != i) i = parent[static_cast<std::size_t>(i)];
-      return i;
-    };
-    auto index = [&](Face f) { return static_cast<int>(std::find(around.begin(), around.end(), f) - around.begin()); };
-    for (Edge e : m.edges(x)) {
-      if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
-      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
-      if (!f0.isValid() || !f1.isValid()) continue;
-      const int r0 = find(index(f0)), r1 = find(index(f1));
-      if (r0 != r1) parent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
-    }
-    std::vector<std::vector<Face>> groups;
-    std::vector<int> slot(around.size(), -1);
-    for (std::size_t i = 0; i < around.size(); ++i) {
-      const int r = find(static_cast<int>(i));
-      if (slot[static_cast<std::size_t>(r)] < 0) {
-        slot[static_cast<std::size_t>(r)] = static_cast<int>(groups.size());
-        groups.emplace_back();
-      }
-      groups[static_cast<std::size_t>(slot[static_cast<std::size_t>(r)])].push_back(around[i]);
-    }
+  std::vector<std::vector<Face>> fanGroups(const SurfaceMesh& m, Vertex x, const std::vector<Edge>& cuts) {
+    std::vector<std::vector<Face>> groups(static_cast<std::size_t>(fanLabels(m, x, cuts)));
+    for (std::size_t i = 0; i < fanFaces.size(); ++i)
+      groups[static_cast<std::size_t>(fanLabel[i])].push_back(fanFaces[i]);
     return groups;
   }
 
-  // The same grouping without allocation (hot path: every extension): labels the faces
-  // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in the order fanGroups
-  // lists its groups. Returns the number of groups.
+  // The grouping without allocation (hot path: every extension): labels the faces
+  // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in order of their first
+  // face. Returns the number of groups.
   int fanLabels(const SurfaceMesh& m, Vertex x, std::span<const Edge> cuts) {
     m.faces(x, fanFaces);
     const std::size_t n = fanFaces.size();
