@@ -241,7 +241,14 @@ struct CutEngine::Impl {
 
   // ---- physics hooks ---------------------------------------------------------------
   // Vertices edited in this sample, checked for pinches at its end (safety net).
-  std::vector<std::pair<int, Vertex>> dirty;
+  struct Dirty {
+    int obj;
+    Vertex v;
+    bool fanChecked = false;  // found one fan after this edit (extend checks its own)
+    std::uint32_t seq = 0;    // edit order (fixPinches)
+    Dirty(int o, Vertex x) : obj(o), v(x) {}
+  };
+  std::vector<Dirty> dirty;
 
   void touch(int obj, std::initializer_list<Vertex> vs) {
     for (Vertex v : vs)
@@ -422,42 +429,67 @@ struct CutEngine::Impl {
 
   // ---- fans ---------------------------------------------------------------------------
   // Faces around x grouped by connection through edges at x that are not in `cuts`.
-  static std::vector<std::vector<Face>> fanGroups(const SurfaceMesh& m, Vertex x, const std::vector<Edge>& cuts) {
-    const std::vector<Face> around = m.faces(x);
-    std::vector<int> parent(around.size());
-    std::iota(parent.begin(), parent.end(), 0);
+  std::vector<std::vector<Face>> fanGroups(const SurfaceMesh& m, Vertex x, const std::vector<Edge>& cuts) {
+    std::vector<std::vector<Face>> groups(static_cast<std::size_t>(fanLabels(m, x, cuts)));
+    for (std::size_t i = 0; i < fanFaces.size(); ++i)
+      groups[static_cast<std::size_t>(fanLabel[i])].push_back(fanFaces[i]);
+    return groups;
+  }
+
+  // The grouping without allocation (hot path: every extension): labels the faces
+  // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in order of their first
+  // face. Returns the number of groups.
+  int fanLabels(const SurfaceMesh& m, Vertex x, std::span<const Edge> cuts) {
+    m.faces(x, fanFaces);
+    const std::size_t n = fanFaces.size();
+    fanParent.resize(n);
+    fanLabel.resize(n);
+    std::iota(fanParent.begin(), fanParent.end(), 0);
     auto find = [&](int i) {
-      while (parent[static_cast<std::size_t>(i)] != i) i = parent[static_cast<std::size_t>(i)];
+      while (fanParent[static_cast<std::size_t>(i)] != i) i = fanParent[static_cast<std::size_t>(i)];
       return i;
     };
-    auto index = [&](Face f) { return static_cast<int>(std::find(around.begin(), around.end(), f) - around.begin()); };
+    auto index = [&](Face f) {
+      return static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
+    };
     for (Edge e : m.edges(x)) {
       if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
       const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
       if (!f0.isValid() || !f1.isValid()) continue;
       const int r0 = find(index(f0)), r1 = find(index(f1));
-      if (r0 != r1) parent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
+      if (r0 != r1) fanParent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
     }
-    std::vector<std::vector<Face>> groups;
-    std::vector<int> slot(around.size(), -1);
-    for (std::size_t i = 0; i < around.size(); ++i) {
+    // A root is the smallest index of its group, so groups are met in fanGroups' order.
+    int count = 0;
+    for (std::size_t i = 0; i < n; ++i) {
       const int r = find(static_cast<int>(i));
-      if (slot[static_cast<std::size_t>(r)] < 0) {
-        slot[static_cast<std::size_t>(r)] = static_cast<int>(groups.size());
-        groups.emplace_back();
-      }
-      groups[static_cast<std::size_t>(slot[static_cast<std::size_t>(r)])].push_back(around[i]);
+      fanLabel[i] = r == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(r)];
     }
-    return groups;
+    return count;
+  }
+
+  // The faces labelled g by the last fanLabels, in its order.
+  std::span<const Face> fanOf(int g) {
+    fanPick.clear();
+    for (std::size_t i = 0; i < fanFaces.size(); ++i)
+      if (fanLabel[i] == g) fanPick.push_back(fanFaces[i]);
+    return fanPick;
   }
 
   // Splits x so that every group of faces (separated by `cuts`) gets its own vertex.
   std::vector<Vertex> splitByGroups(int obj, Vertex x, const std::vector<Edge>& cuts) {
     SurfaceMesh& m = meshOf(obj);
     std::vector<Vertex> made;
-    auto groups = fanGroups(m, x, cuts);
-    for (std::size_t g = 1; g < groups.size(); ++g) {
-      const Vertex nv = m.splitVertex(x, groups[g]);
+    const int groups = fanLabels(m, x, cuts);
+    if (groups < 2) return made;
+    // Every group's faces first: the splits change the faces around x.
+    fanGroupsBuf.resize(static_cast<std::size_t>(groups));
+    for (int g = 1; g < groups; ++g) {
+      const auto fan = fanOf(g);
+      fanGroupsBuf[static_cast<std::size_t>(g)].assign(fan.begin(), fan.end());
+    }
+    for (int g = 1; g < groups; ++g) {
+      const Vertex nv = m.splitVertex(x, fanGroupsBuf[static_cast<std::size_t>(g)]);
       if (!nv.isValid()) continue;
       if (tissue(obj)) physics::initVertexCopy(m, nv, x, p.tissue);
       made.push_back(nv);
@@ -472,9 +504,14 @@ struct CutEngine::Impl {
     if (es.empty()) return true;
     int twice = 0;
     Edge start = es.front();
+    bool startOnBoundary = m.isBoundary(start);
     for (Edge e : es) {
-      twice += (m.face(e, 0).isValid() ? 1 : 0) + (m.face(e, 1).isValid() ? 1 : 0);
-      if (m.isBoundary(e) && !m.isBoundary(start)) start = e;
+      const bool boundary = m.isBoundary(e);
+      twice += (m.face(e, 0).isValid() ? 1 : 0) + (boundary ? 0 : 1);
+      if (boundary && !startOnBoundary) {
+        start = e;
+        startOnBoundary = true;
+      }
     }
     const int total = twice / 2;
     Face f = m.face(start, 0);
@@ -483,13 +520,13 @@ struct CutEngine::Impl {
     int count = 0;
     while (count <= total) {
       ++count;
-      Edge next;
-      for (Edge g : m.edges(f))
-        if (g != e && (m.vertex(g, 0) == x || m.vertex(g, 1) == x)) {
-          next = g;
-          break;
-        }
-      if (!next.isValid() || next == start) break;
+      // The two edges of f at x are the one leaving x and the one arriving at it.
+      const int k = m.localIndex(f, x);
+      if (k < 0) break;
+      const auto& fe = m.edges(f);
+      const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
+      const Edge next = out == e ? in : out;
+      if (next == start) break;
       const Face g = m.otherFace(next, f);
       if (!g.isValid()) break;
       e = next;
@@ -505,41 +542,60 @@ struct CutEngine::Impl {
     stats.unpinched += static_cast<long>(made.size());
   }
 
+  // The face kind property, looked up once per edit instead of once per triangle.
+  static mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) { return m.faceProperty<int>(kFaceKindProp, kSurface); }
+
+  static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
+    // A face running a -> b already rules out (a, b, c): try the other orientation first
+    // (the same result, without the failed attempt).
+    bool flip = false;
+    if (const Edge ab = m.findEdge(a, b); ab.isValid()) {
+      const auto& fv = m.vertices(m.face(ab, 0));
+      const int i = m.localIndex(m.face(ab, 0), a);
+      flip = i >= 0 && fv[static_cast<std::size_t>((i + 1) % 3)] == b;
+    }
+    if (flip) std::swap(b, c);
+    Face f = m.addFace(a, b, c);
+    if (!f.isValid() && !flip) f = m.addFace(a, c, b);
+    if (f.isValid()) kinds[f] = kind;
+    return f;
+  }
+
   Face addTriangle(int obj, Vertex a, Vertex b, Vertex c, int kind) {
     SurfaceMesh& m = meshOf(obj);
-    Face f = m.addFace(a, b, c);
-    if (!f.isValid()) f = m.addFace(a, c, b);
-    if (f.isValid()) m.faceProperty<int>(kFaceKindProp, kSurface)[f] = kind;
-    return f;
+    auto kinds = kindsOf(m);
+    return addTriangle(m, kinds, a, b, c, kind);
   }
 
   // Fills the quad hole (x, n, y, o) with two triangles around o (apex invalid) or
   // four around a new vertex at apexPos. Returns the apex used, invalid on failure.
   Vertex fillQuad(int obj, Vertex x, Vertex n, Vertex y, Vertex o, bool newApex, const Vec3& apexPos, int kind) {
     SurfaceMesh& m = meshOf(obj);
-    std::vector<Face> added;
+    auto kinds = kindsOf(m);
+    std::array<Face, 4> added{};
+    std::size_t nAdded = 0;
     auto rollback = [&]() {
-      for (Face f : added) m.deleteFace(f);
-      added.clear();
+      for (std::size_t i = 0; i < nAdded; ++i) m.deleteFace(added[i]);
+      nAdded = 0;
     };
     if (!newApex && !m.findEdge(n, o).isValid()) {
       for (auto tri : {std::array<Vertex, 3>{x, n, o}, std::array<Vertex, 3>{n, y, o}}) {
-        const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+        const Face f = addTriangle(m, kinds, tri[0], tri[1], tri[2], kind);
         if (!f.isValid()) break;
-        added.push_back(f);
+        added[nAdded++] = f;
       }
-      if (added.size() == 2) return o;
+      if (nAdded == 2) return o;
       rollback();
     }
     const Vec3 bestPos = apexPos;
     const Vertex B = m.addVertex(bestPos);
     for (auto tri : {std::array<Vertex, 3>{x, n, B}, std::array<Vertex, 3>{n, y, B}, std::array<Vertex, 3>{y, o, B},
                      std::array<Vertex, 3>{o, x, B}}) {
-      const Face f = addTriangle(obj, tri[0], tri[1], tri[2], kind);
+      const Face f = addTriangle(m, kinds, tri[0], tri[1], tri[2], kind);
       if (!f.isValid()) break;
-      added.push_back(f);
+      added[nAdded++] = f;
     }
-    if (added.size() == 4) {
+    if (nAdded == 4) {
       m.vertexProperty<std::uint8_t>(kApexProp, 0)[B] = 1;
       if (tissue(obj)) {
         physics::initVertexCopy(m, B, n, p.tissue);
@@ -575,8 +631,9 @@ struct CutEngine::Impl {
     if (N == v) return true;
     Track* P = trackById(tr.partner);
     tr.prevTip = v;
-    auto advanceTo = [&](std::vector<Vertex> chain) {
-      tr.chain = std::move(chain);
+    // (assign: the chain keeps its buffer)
+    auto advanceTo = [&](std::initializer_list<Vertex> chain) {
+      tr.chain.assign(chain);
       tr.tip = N;
       tr.tipDepth = depthN;
       stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
@@ -595,7 +652,9 @@ struct CutEngine::Impl {
       advanceTo({v});
       return true;
     }
-    const std::vector<Vertex> chain = tr.chain;
+    // Read before advanceTo replaces it (only this track's chain changes here).
+    const std::vector<Vertex>& chain = tr.chain;
+    const std::size_t chainLen = chain.size();
     const Vertex o = chain.front();
     const Edge eOut = m.findEdge(v, N), eFront = m.findEdge(v, o);
     if (!eOut.isValid() || !eFront.isValid() || std::find(chain.begin(), chain.end(), N) != chain.end()) {
@@ -666,10 +725,12 @@ struct CutEngine::Impl {
         // ... while the fan's triangle keeps a fair smallest angle (a low groove bottom
         // far back makes needles: a shallow groove gets bottom vertices more often).
         const Vec3 po = m.position(o);
-        const double fanAngle = minAngle(pv, pN, po);
-        const bool reuse =
-            apexProp[o] != 0 && (depthN - po).norm() < spacing &&
-            (fanAngle >= kMinWallAngle || fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos)));
+        auto fanAngleOk = [&] {
+          const double fanAngle = minAngle(pv, pN, po);
+          return fanAngle >= kMinWallAngle ||
+                 fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos));
+        };
+        const bool reuse = apexProp[o] != 0 && (depthN - po).norm() < spacing && fanAngleOk();
         if (reuse && fanOk)
           fill = Fill::Fan;
         else if (apexOk)
@@ -688,16 +749,16 @@ struct CutEngine::Impl {
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
-        std::vector<Vertex> grown{v};
-        grown.insert(grown.end(), chain.begin(), chain.end());
-        advanceTo(grown);
+        tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
+        tr.tip = N;
+        tr.tipDepth = depthN;
         return true;
       }
     }
     const std::size_t facesBefore = m.facesSize();
-    auto groups = fanGroups(m, v, {eOut, eFront});
+    const std::array<Edge, 2> cutsAtV{eOut, eFront};
     Vertex vn;
-    if (groups.size() == 2) vn = m.splitVertex(v, groups[1]);
+    if (fanLabels(m, v, cutsAtV) == 2) vn = m.splitVertex(v, fanOf(1));
     if (!vn.isValid()) {
       // Cannot open here (should not happen on a manifold mesh): leave the slit closed.
       advanceTo({v});
@@ -705,9 +766,10 @@ struct CutEngine::Impl {
     }
     if (tissue(tr.object)) physics::initVertexCopy(m, vn, v, p.tissue);
     mark(tr, vn);
-    std::vector<Vertex> touched{v, vn, N};
+    std::vector<Vertex>& touched = extendTouched;
+    touched.assign({v, vn, N});
     // A longer front (a cut-in path, or a front through a wall apex) opens as well.
-    for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+    for (std::size_t i = 0; i + 1 < chainLen; ++i) {
       touched.push_back(chain[i]);
       const Edge e = m.findEdge(chain[i], chain[i + 1]);
       if (!e.isValid()) continue;
@@ -716,24 +778,26 @@ struct CutEngine::Impl {
         touched.push_back(x);
       }
     }
-    touched.push_back(chain.back());
-    std::vector<Vertex> next{v};
-    if (walls && chain.size() == 1) {
+    const Vertex chainBack = chain.back();
+    touched.push_back(chainBack);
+    std::array<Vertex, 2> next{v, Vertex()};
+    std::size_t nextLen = 1;
+    if (walls && chainLen == 1) {
       const Vertex apex =
           fillQuad(tr.object, vn, N, v, o, fill == Fill::Apex, apexPos, paired ? kSideWall : kGrooveWall);
       if (!apex.isValid()) {
         ++stats.fillFailures;
       } else if (apex == o) {
-        next = {o};
+        next[0] = o;
         if (P && P->tip == o) P->chain = {N};
       } else {
         mark(tr, apex);
         touched.push_back(apex);
+        next[0] = apex;
         if (P && P->tip == o) {
-          next = {apex, o};
+          next[1] = o;
+          nextLen = 2;
           P->chain = {apex, N};
-        } else {
-          next = {apex};
         }
       }
     } else if (walls) {
@@ -741,12 +805,15 @@ struct CutEngine::Impl {
       // triangulation would leave no edge there, and the next step would lose the front).
       const int kind = P ? kSideWall : kGrooveWall;
       const bool filled =
-          fill == Fill::Halves ? fillHalvesAt(tr.object, N, chain.back(), kind) : fillFanAt(tr.object, N, kind);
+          fill == Fill::Halves ? fillHalvesAt(tr.object, N, chainBack, kind) : fillFanAt(tr.object, N, kind);
       if (!filled && !fillHoleAt(tr.object, N, kind)) ++stats.fillFailures;
-      next = {chain.back()};
-      if (P && P->tip == chain.back()) P->chain = {N};
+      next[0] = chainBack;
+      if (P && P->tip == chainBack) P->chain = {N};
     }
-    advanceTo(next);
+    if (nextLen == 2)
+      advanceTo({next[0], next[1]});
+    else
+      advanceTo({next[0]});
     if (dbg()) {
       for (Vertex x : touched)
         if (m.isValid(x))
@@ -754,16 +821,21 @@ struct CutEngine::Impl {
             const auto& fv = m.vertices(f);
             const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
             if (h < 0.25 * p.snapDistance && f.idx() >= facesBefore)
-              std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill)
-                        << " chain=" << chain.size() << " paired=" << paired << "\n";
+              std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill) << " chain=" << chainLen
+                        << " paired=" << paired << "\n";
           }
     }
+    const std::size_t dirtyBefore = dirty.size();
     for (Vertex x : touched) touch(tr.object, {x});
+    const long unpinchedBefore = stats.unpinched;
     for (Vertex x : touched) unpinch(tr.object, x);
+    // Checked here and nothing split: the safety net need not walk these fans again
+    // unless a later edit lists them.
+    if (stats.unpinched == unpinchedBefore)
+      for (std::size_t i = dirtyBefore; i < dirty.size(); ++i) dirty[i].fanChecked = true;
     if (sliverTrace())
       for (Vertex x : touched)
-        traceThin(tr.object, {x},
-                  fill == Fill::Apex ? "extend/apex" : (chain.size() > 1 ? "extend/chain" : "extend/fan"));
+        traceThin(tr.object, {x}, fill == Fill::Apex ? "extend/apex" : (chainLen > 1 ? "extend/chain" : "extend/fan"));
     return true;
   }
 
@@ -1529,10 +1601,12 @@ struct CutEngine::Impl {
     SurfaceMesh& m = meshOf(tr.object);
     const Vec3 from = m.position(tr.tip);
     Vec3 fallback = Vec3::UnitZ();
-    {
-      const auto around = m.faces(tr.tip);
-      if (!around.empty()) fallback = rawNormal(m, around.front()).normalized();
-    }
+    // The first face around the tip (SurfaceMesh::faces order), without the list.
+    for (Edge e : m.edges(tr.tip))
+      if (const Face f = m.face(e, 0).isValid() ? m.face(e, 0) : m.face(e, 1); f.isValid()) {
+        fallback = rawNormal(m, f).normalized();
+        break;
+      }
     const Vec3 n = sweepNormal(from, h.point, bladeDir, fallback);
     bool ok = true;
     if (n.isZero()) {
@@ -2178,28 +2252,43 @@ struct CutEngine::Impl {
   std::vector<Deep> deepBuf;
   int splitting = 0;
   std::vector<Face> walkFaces;
+  // Fan splits (fanLabels, splitByGroups) and extend's vertex list.
+  std::vector<Face> fanFaces, fanPick;
+  std::vector<int> fanParent, fanLabel;
+  std::vector<std::vector<Face>> fanGroupsBuf;
+  std::vector<Vertex> extendTouched;
 
-  std::vector<std::pair<int, Vertex>> dirtyWork;
+  std::vector<Dirty> dirtyWork;
   // Safety net: no vertex around an edit may join two fans.
   void fixPinches() {
     dirtyWork.clear();
     std::swap(dirtyWork, dirty);  // both keep their capacity
-    // An edit touches a vertex several times: check each once.
-    std::sort(dirtyWork.begin(), dirtyWork.end(), [](const auto& a, const auto& b) {
-      return a.first != b.first ? a.first < b.first : a.second.idx() < b.second.idx();
+    // An edit touches a vertex several times: check each once, unless its last edit
+    // already found it one fan (the order of edits is kept within a vertex).
+    for (std::size_t i = 0; i < dirtyWork.size(); ++i) dirtyWork[i].seq = static_cast<std::uint32_t>(i);
+    std::sort(dirtyWork.begin(), dirtyWork.end(), [](const Dirty& a, const Dirty& b) {
+      if (a.obj != b.obj) return a.obj < b.obj;
+      return a.v.idx() != b.v.idx() ? a.v.idx() < b.v.idx() : a.seq < b.seq;
     });
-    dirtyWork.erase(std::unique(dirtyWork.begin(), dirtyWork.end()), dirtyWork.end());
-    for (const auto& [obj, v] : dirtyWork) {
-      if (indexOf(obj) < 0) continue;
-      SurfaceMesh& m = meshOf(obj);
-      if (!m.isValid(v)) continue;
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < dirtyWork.size(); ++i) {
+      if (kept > 0 && dirtyWork[kept - 1].obj == dirtyWork[i].obj && dirtyWork[kept - 1].v == dirtyWork[i].v)
+        dirtyWork[kept - 1].fanChecked = dirtyWork[i].fanChecked;
+      else
+        dirtyWork[kept++] = dirtyWork[i];
+    }
+    dirtyWork.resize(kept, Dirty(-1, Vertex()));
+    for (const Dirty& d : dirtyWork) {
+      if (d.fanChecked || indexOf(d.obj) < 0) continue;
+      SurfaceMesh& m = meshOf(d.obj);
+      if (!m.isValid(d.v)) continue;
       // Every edit lists the vertices whose fans it changed (the ends of a duplicated
       // edge are on the cut, hence listed too): their neighbours need no check.
-      if (!singleFan(m, v)) unpinch(obj, v);
+      if (!singleFan(m, d.v)) unpinch(d.obj, d.v);
     }
-    for (const auto& [obj, v] : dirtyWork) {
-      if (indexOf(obj) < 0 || !meshOf(obj).isValid(v)) continue;
-      improveAround(obj, v);
+    for (const Dirty& d : dirtyWork) {
+      if (indexOf(d.obj) < 0 || !meshOf(d.obj).isValid(d.v)) continue;
+      improveAround(d.obj, d.v);
     }
   }
 

@@ -419,7 +419,12 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     detachFace(f);
   }
   for (std::size_t i = 0; i < fan.size(); ++i) {
-    attachFace(fan[i], tris[i][0], tris[i][1], tris[i][2]);
+    // The side opposite v is still the face's own edge: no search through its ends'
+    // lists (the same edge findEdge would return).
+    std::array<Edge, 3> known{};
+    for (std::size_t k = 0; k < 3; ++k)
+      if (tris[i][k] != nv && tris[i][(k + 1) % 3] != nv) known[k] = touched[3 * i + k];
+    attachFace(fan[i], tris[i][0], tris[i][1], tris[i][2], known);
   }
   // An edge that lost all its faces to the new vertex keeps its properties on its copy.
   for (Edge e : touched) {
