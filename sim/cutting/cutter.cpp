@@ -382,22 +382,20 @@ struct CutEngine::Impl {
     }
     const double quality = splitEdgeQuality(m, e, q);
     if (quality >= sliverHeight()) return Vertex();
-    for (const auto& [x, d] : {std::pair{a, da}, std::pair{b, db}})
-      if (d <= sliverReach(quality, L) && free(x)) {
-        ++stats.sliverSnaps;
-        if (sliverTrace()) {
-          std::cerr << "sliverSnap edge d=" << d << " L=" << L << " q=" << splitEdgeQuality(m, e, q) << " faces";
-          for (int k = 0; k < 2; ++k)
-            if (const Face g = m.face(e, k); g.isValid()) {
-              const auto& gv = m.vertices(g);
-              std::cerr << " h=" << height(m.position(gv[0]), m.position(gv[1]), m.position(gv[2]))
-                        << "/ang=" << minAngle(m.position(gv[0]), m.position(gv[1]), m.position(gv[2])) * 180 / M_PI
-                        << "/kind=" << m.getFaceProperty<int>(kFaceKindProp)[g];
-            }
-          std::cerr << "\n";
-        }
-        return x;
+    bool onCut = false;
+    for (const auto& [x, d] : {std::pair{a, da}, std::pair{b, db}}) {
+      if (d > sliverReach(quality, L)) continue;
+      if (!free(x)) {
+        onCut = true;
+        continue;
       }
+      ++stats.sliverSnaps;
+      if (sliverTrace()) std::cerr << "sliverSnap edge d=" << d << " L=" << L << " q=" << quality << "\n";
+      return x;
+    }
+    // The end to take is on the cut itself and the split would go under the floor:
+    // stop there (as within the tolerance) rather than leave a sliver.
+    if (onCut && quality < 0.3 * p.snapDistance && blocked) *blocked = true;
     return Vertex();
   }
 
