@@ -536,7 +536,7 @@ TEST(CutterPropertySeeds, Cube2183LongFrontFillMakesNoZeroAreaTriangle) { EXPECT
 
 // Seeds that left a triangle under the floor before a split was checked for the
 // slivers it makes (LD_PROPERTY_SCALE=3, LD_CUT_ALL_FAILURES=1); each splits an edge
-// where one of the four new triangles would be thinner than half the snapping distance,
+// where one of the four new triangles would be thinner than 0.3 of the snapping distance,
 // and now moves onto the edge's nearer end instead.
 // slab 1027: the second stroke crosses the first groove through a 3-degree needle along
 // its lip, 0.12 mm from the needle's sharp corner (a 0.006 mm triangle; now that corner).
