@@ -116,6 +116,7 @@ struct CutStats {
   long unpinched = 0;              // pinched vertices split (safety net)
   long flips = 0;                  // edges flipped to remove thin triangles
   long longestFront = 0;           // most vertices a cut's front (tip to the other side) has had
+  long sliverSnaps = 0;            // points moved onto a vertex because a split there would make a sliver
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
   double separationSeconds = 0.0;  // time finding and splitting off freed pieces (local search; rare)
   double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)

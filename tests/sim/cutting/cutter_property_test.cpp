@@ -44,22 +44,56 @@ struct Shape {
   std::function<mesh::SurfaceMesh()> make;
 };
 
-// Thinnest triangle seen, and the number of checks that saw one thinner than the floor
-// (reported, not asserted: random strokes can still make slivers; see README).
-double g_minHeight = 1e300;
-long g_thin = 0, g_checks = 0;
-bool g_strictHeight = std::getenv("LD_CUT_STRICT_SLIVERS") != nullptr;
+// Thinnest, smallest and sharpest triangle seen, and the number of checks that saw
+// one under the snapping floor (min(snapDistance / 4, half the input's thinnest)):
+// asserted per sample unless LD_CUT_LAX_SLIVERS is set (then only counted).
+struct Quality {
+  double height = 1e300, area = 1e300, angleDeg = 1e300;
+  void add(const Quality& o) {
+    height = std::min(height, o.height);
+    area = std::min(area, o.area);
+    angleDeg = std::min(angleDeg, o.angleDeg);
+  }
+};
+Quality g_seen;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0;
+bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
-// Smallest height of any triangle (what snapping keeps away from zero).
-double minHeight(const mesh::SurfaceMesh& m) {
-  double h = 1e300;
+void resetSeen() {
+  g_seen = Quality{};
+  g_thin = g_checks = g_walkFailures = 0;
+}
+
+std::string seenText() {
+  return "thinnest triangle height " + std::to_string(g_seen.height) + " mm, smallest area " +
+         std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
+         " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
+         ", walk failures " + std::to_string(g_walkFailures);
+}
+
+// Smallest height (what snapping keeps away from zero), area and angle of any triangle.
+Quality quality(const mesh::SurfaceMesh& m) {
+  Quality q;
   for (auto f : m.faces()) {
     const auto& v = m.vertices(f);
     const Vec3 a = m.position(v[0]), b = m.position(v[1]), c = m.position(v[2]);
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-    h = std::min(h, (b - a).cross(c - a).norm() / longest);
+    std::array<double, 3> l{(c - b).norm(), (a - c).norm(), (b - a).norm()};
+    std::sort(l.begin(), l.end());
+    const double twiceArea = (b - a).cross(c - a).norm();
+    q.height = std::min(q.height, l[2] > 0 ? twiceArea / l[2] : 0.0);
+    q.area = std::min(q.area, 0.5 * twiceArea);
+    // The smallest angle is opposite the shortest edge (at most 60 degrees).
+    const double s = l[1] * l[2] > 0 ? std::clamp(twiceArea / (l[1] * l[2]), 0.0, 1.0) : 0.0;
+    q.angleDeg = std::min(q.angleDeg, std::asin(s) * 180.0 / M_PI);
   }
-  return h;
+  return q;
+}
+double minHeight(const mesh::SurfaceMesh& m) { return quality(m).height; }
+
+// The floor every triangle keeps: a quarter of the snapping distance, or half the
+// input's thinnest triangle.
+double heightFloorFor(const CutParams& params, double floor0) {
+  return std::min(0.25 * params.snapDistance, 0.5 * floor0);
 }
 
 // Checks after every sample; returns a description of the first problem.
@@ -82,7 +116,8 @@ std::string check(const CutEngine& e, bool closed, double heightFloor, long pinc
       if (!isManifoldVertex(o.mesh, v)) ++pinched;
     }
     if (closed && !o.mesh.isClosed()) return "object " + std::to_string(o.id) + " is no longer closed";
-    const double h = minHeight(o.mesh);
+    const Quality q = quality(o.mesh);
+    const double h = q.height;
     if (h < heightFloor && std::getenv("LD_CUT_DEBUG")) {
       for (auto f : o.mesh.faces()) {
         const auto& v = o.mesh.vertices(f);
@@ -95,7 +130,7 @@ std::string check(const CutEngine& e, bool closed, double heightFloor, long pinc
         }
       }
     }
-    g_minHeight = std::min(g_minHeight, h);
+    g_seen.add(q);
     if (h < heightFloor) ++g_thin;
     if (h < heightFloor && g_strictHeight)
       return "sliver: triangle height " + std::to_string(h) + " < " + std::to_string(heightFloor);
@@ -115,13 +150,13 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3) {
   const auto box = m.bounds();
   const Vec3 c = box.center(), ext = box.extent();
   const double size = ext.norm();
-  CutParams params;
+  const double floor0 = minHeight(m);
+  const CutParams params;
   CutEngine e(params);
   e.addObject(std::move(m));
-  const double floor0 = minHeight(e.objects()[0].mesh);
   long pinched0 = 0;
   for (auto v : e.objects()[0].mesh.vertices()) pinched0 += isManifoldVertex(e.objects()[0].mesh, v) ? 0 : 1;
-  const double heightFloor = std::min(0.25 * params.snapDistance, 0.5 * floor0);
+  const double heightFloor = heightFloorFor(params, floor0);
   for (int s = 0; s < strokesPerMesh; ++s) {
     auto rndDir = [&]() {
       Vec3 d(U(rng) - 0.5, U(rng) - 0.5, U(rng) - 0.5);
@@ -157,6 +192,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3) {
     const std::string err = check(e, closed, heightFloor, pinched0);
     if (!err.empty()) return "stroke " + std::to_string(s) + " end: " + err;
   }
+  g_walkFailures += e.stats().walkFailures;
   return {};
 }
 
@@ -169,11 +205,11 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   const bool closed = m.isClosed();
   const auto box = m.bounds();
   const Vec3 c = box.center(), ext = box.extent();
-  CutParams params;
+  const double floor0 = minHeight(m);
+  const CutParams params;
   CutEngine e(params);
   e.addObject(std::move(m));
-  const double floor0 = minHeight(e.objects()[0].mesh);
-  const double heightFloor = std::min(0.25 * params.snapDistance, 0.5 * floor0);
+  const double heightFloor = heightFloorFor(params, floor0);
   for (int s = 0; s < strokesPerMesh; ++s) {
     // Tip from inside below the top (a groove) to below the bottom, or the reverse.
     const double zIn = c.z() + ext.z() * (0.05 + 0.4 * U(rng)), zOut = c.z() - ext.z() * (0.55 + 0.4 * U(rng));
@@ -205,6 +241,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
     const std::string err = check(e, closed, heightFloor);
     if (!err.empty()) return "stroke " + std::to_string(s) + " end: " + err;
   }
+  g_walkFailures += e.stats().walkFailures;
   return {};
 }
 
@@ -225,7 +262,7 @@ std::vector<Shape> shapes() {
 }
 
 TEST(CutterProperty, RandomStrokesKeepMeshesValid) {
-  g_minHeight = 1e300;
+  resetSeen();
   const int count = std::max(1, static_cast<int>(70 * propertyScale()));
   const int maxReports = std::getenv("LD_CUT_ALL_FAILURES") ? 100000 : 10;
   int failures = 0;
@@ -240,18 +277,16 @@ TEST(CutterProperty, RandomStrokesKeepMeshesValid) {
       }
     }
   }
-  std::cout << "random strokes: " << count * static_cast<int>(all.size()) << ", checks " << g_checks
-            << ", thinnest triangle height " << g_minHeight << " mm, checks with a triangle under snap/4: " << g_thin
-            << "\n";
-  RecordProperty("min_triangle_height", std::to_string(g_minHeight));
-  // Empirical floor, not a proof: the thinnest triangle over 1050 strokes (scale 3) is
-  // 4.2e-5 mm with the local flips; without them 2.0e-5 mm already at scale 1.
-  EXPECT_GE(g_minHeight, 3e-5) << "a thinner triangle than any seen so far (mm)";
+  std::cout << "random strokes: " << count * static_cast<int>(all.size()) << ", " << seenText() << "\n";
+  RecordProperty("min_triangle_height", std::to_string(g_seen.height));
+  RecordProperty("min_triangle_area", std::to_string(g_seen.area));
+  RecordProperty("min_triangle_angle_deg", std::to_string(g_seen.angleDeg));
 }
 
 // Strokes whose depth changes so that the blade goes through the bottom (or rises
 // out of it) on every closed shape: the same checks after every sample.
 TEST(CutterProperty, RandomDeepeningStrokesKeepMeshesValid) {
+  resetSeen();
   const int count = std::max(1, static_cast<int>(30 * propertyScale()));
   const int maxReports = std::getenv("LD_CUT_ALL_FAILURES") ? 100000 : 10;
   int failures = 0;
@@ -266,6 +301,7 @@ TEST(CutterProperty, RandomDeepeningStrokesKeepMeshesValid) {
       }
     }
   }
+  std::cout << "deepening strokes: " << count * 4 << ", " << seenText() << "\n";
 }
 
 // A pre-stretched slab that physics moves between samples, as `cut --physics on` steps
@@ -457,11 +493,19 @@ TEST(CutterProperty, RandomStrokesOnSharedDataMeshes) {
       continue;
     }
     if (m.nFaces() > 6000) continue;  // keep the per-sample checks quick
+    // A mesh in metres (under a unit across) is cut in millimetres, the engine's unit:
+    // its triangles would be far smaller than the snapping distance.
+    if (m.bounds().extent().norm() < 1.0)
+      for (auto v : m.vertices()) m.position(v) *= 1000.0;
     const Shape sh{name, [m] { return m; }};
+    const Quality q0 = quality(m);
+    resetSeen();
     for (int i = 0; i < count; ++i) {
       const std::string err = runSeed(sh, 7000u + static_cast<unsigned>(i), 2);
       EXPECT_EQ(err, "") << name << " seed " << 7000 + i;
     }
+    std::cout << name << " (input: height " << q0.height << ", area " << q0.area << ", angle " << q0.angleDeg
+              << " deg): " << seenText() << "\n";
     ++tried;
   }
   EXPECT_GT(tried, 0);
@@ -475,10 +519,12 @@ TEST(CutterProperty, RandomStrokesOnBundledModels) {
     ASSERT_TRUE(std::filesystem::exists(file)) << file;
     const mesh::SurfaceMesh m = io::readMesh(file);
     const Shape sh{name, [m] { return m; }};
+    resetSeen();
     for (int i = 0; i < count; ++i) {
       const std::string err = runSeed(sh, 9000u + static_cast<unsigned>(i), 2);
       EXPECT_EQ(err, "") << name << " seed " << 9000 + i;
     }
+    std::cout << name << ": " << seenText() << "\n";
   }
 }
 
@@ -488,13 +534,44 @@ TEST(CutterProperty, RandomStrokesOnBundledModels) {
 // triangle. Fixed: such a loop is closed around a new vertex at its centroid.
 TEST(CutterPropertySeeds, Cube2183LongFrontFillMakesNoZeroAreaTriangle) { EXPECT_EQ(runSeed(shapes()[1], 2183), ""); }
 
-// Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes).
+// Seeds that left a triangle under the floor before a split was checked for the
+// slivers it makes (LD_PROPERTY_SCALE=3, LD_CUT_ALL_FAILURES=1); each splits an edge
+// where one of the four new triangles would be thinner than 0.3 of the snapping distance,
+// and now moves onto the edge's nearer end instead.
+// slab 1027: the second stroke crosses the first groove through a 3-degree needle along
+// its lip, 0.12 mm from the needle's sharp corner (a 0.006 mm triangle; now that corner).
+TEST(CutterPropertySeeds, Slab1027CrossingAGrooveThroughANeedleSnapsToItsCorner) {
+  EXPECT_EQ(runSeed(shapes()[0], 1027), "");
+}
+// cube 2086: a crossing 0.014 mm from the end of a 0.044 mm edge (the tolerance is capped
+// at 0.3 of the edge there).
+TEST(CutterPropertySeeds, Cube2086CrossingNextToTheEndOfAShortEdgeSnaps) { EXPECT_EQ(runSeed(shapes()[1], 2086), ""); }
+// cylinder 4124: a 10 mm edge of an old side wall crossed 3.4 mm from its end, next to
+// a needle (a split anywhere on the edge would leave a triangle under the floor).
+TEST(CutterPropertySeeds, Cylinder4124CrossingALongWallEdgeSnaps) { EXPECT_EQ(runSeed(shapes()[3], 4124), ""); }
+// cylinder 4104: a crossing 0.6 mm from the end of a 6.7 mm side-wall edge whose near end
+// is on the cut itself and whose far end is out of reach (a 0.0095 mm triangle): the walk
+// now stops there, as within the plain tolerance of the cut.
+TEST(CutterPropertySeeds, Cylinder4104CrossingNextToTheCutItselfStops) { EXPECT_EQ(runSeed(shapes()[3], 4104), ""); }
+// slab deepen 20021: the groove's path crosses an edge next to its end under the walls.
+TEST(CutterPropertySeeds, SlabDeepen20021GrooveCrossingSnaps) { EXPECT_EQ(runDeepenSeed(shapes()[0], 20021), ""); }
+
+// Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
+// or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
   const char* e = std::getenv("LD_CUT_SEED");
   if (!e) GTEST_SKIP() << "set LD_CUT_SEED=shape:seed";
   const std::string s = e;
-  const auto k = static_cast<std::size_t>(std::stoi(s.substr(0, s.find(':'))));
+  const std::string shape = s.substr(0, s.find(':'));
   const auto seed = static_cast<unsigned>(std::stoul(s.substr(s.find(':') + 1)));
+  if (shape.find('.') != std::string::npos) {
+    const auto bundled = ld::test::resourcesDir() / "models" / shape;
+    LD_REQUIRE_SHARED_DATA(dir, "meshes");
+    const mesh::SurfaceMesh m = io::readMesh(std::filesystem::exists(bundled) ? bundled : dir / shape);
+    EXPECT_EQ(runSeed(Shape{shape, [m] { return m; }}, seed, 2), "");
+    return;
+  }
+  const auto k = static_cast<std::size_t>(std::stoi(shape));
   EXPECT_EQ(seed >= 20000u ? runDeepenSeed(shapes()[k], seed) : runSeed(shapes()[k], seed), "");
 }
 

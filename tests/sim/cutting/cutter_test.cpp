@@ -248,6 +248,51 @@ TEST(CutterTemplates, MidwayTrianglesCrossedEdgeToEdge) {
   EXPECT_EQ(e.stats().walkFailures, 0);
 }
 
+// Smallest height of any triangle (what a sliver lacks).
+double thinnestHeight(const mesh::SurfaceMesh& m) {
+  double h = 1e300;
+  for (auto f : m.faces()) {
+    const auto& v = m.vertices(f);
+    const Vec3 a = m.position(v[0]), b = m.position(v[1]), c = m.position(v[2]);
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    h = std::min(h, (b - a).cross(c - a).norm() / longest);
+  }
+  return h;
+}
+
+TEST(CutterSnapping, CrossingANeedleNearItsSharpCornerSnapsToTheCorner) {
+  // A fan around a = (0,0) with a needle (a, c, b) of 4.6 degrees at a (height 0.04 mm,
+  // above the floor). The stroke crosses the needle's long edges 0.1 mm from a: past the
+  // snapping tolerance (0.05 mm), but splitting there would leave a triangle 0.008 mm
+  // thin (0.1 mm x sin 4.6 degrees). The cut goes through a instead.
+  mesh::SurfaceMesh m;
+  const auto a = m.addVertex(Vec3(0, 0, 0)), b = m.addVertex(Vec3(0.5, 0.02, 0)), c = m.addVertex(Vec3(0.5, -0.02, 0)),
+             t = m.addVertex(Vec3(0, 0.6, 0)), u = m.addVertex(Vec3(0, -0.6, 0)), l = m.addVertex(Vec3(-0.6, 0, 0));
+  m.addFace(a, c, b);
+  m.addFace(a, b, t);
+  m.addFace(a, u, c);
+  m.addFace(a, t, l);
+  m.addFace(a, l, u);
+  CutEngine e;
+  e.addObject(std::move(m));
+  const double floor = 0.25 * e.params().snapDistance;
+  test::stroke(e, Vec3(0.1, 0.4, -0.5), Vec3(0.1, -0.4, -0.5), Vec3(0, 0, -1), 2.0, 1000.0, [&](CutEngine& x) {
+    expectSound(x, false);
+    EXPECT_GE(thinnestHeight(x.objects()[0].mesh), floor);
+  });
+  const auto& cut = e.objects()[0].mesh;
+  int atA = 0, nearA = 0;
+  for (auto v : cut.vertices()) {
+    const double d = cut.position(v).norm();
+    atA += d < 1e-12 ? 1 : 0;
+    nearA += d > 1e-12 && d < 0.15 ? 1 : 0;
+  }
+  EXPECT_EQ(atA, 2) << "the cut passes through a, which opens into two copies";
+  EXPECT_EQ(nearA, 0) << "no vertex on the needle's edges next to a";
+  EXPECT_GT(e.stats().sliverSnaps, 0);
+  EXPECT_EQ(e.stats().walkFailures, 0);
+}
+
 TEST(CutterTemplates, SheetCutAcrossFromRimToRimSeparates) {
   // Cut-in and cut-out at the boundary of a sheet.
   CutEngine e;
