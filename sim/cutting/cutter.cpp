@@ -1010,6 +1010,7 @@ struct CutEngine::Impl {
   // (no triangle on an edge is thicker than the edge, and deferring keeps the edges:
   // the front would only grow). Long fronts are opened whatever their quality short of
   // degenerate: growing costs O(front) per step, and the cut-out caps it with one fan.
+  // Never under the sliver floor (sliverHeight = 0.6 thr), even on a long front.
   static bool halvesOk(const SurfaceMesh& m, Vertex N, Vertex v, const std::vector<Vertex>& chain, double thr) {
     if (m.findEdge(N, chain.back()).isValid()) return false;
     std::vector<Vertex> half{N, v};
@@ -1017,7 +1018,7 @@ struct CutEngine::Impl {
     double shortest = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i + 1 < half.size(); ++i)
       shortest = std::min(shortest, (m.position(half[i + 1]) - m.position(half[i])).norm());
-    const double need = half.size() > kLongFront ? 1e-3 * thr : std::min(thr, 0.5 * shortest);
+    const double need = std::max(0.6 * thr, half.size() > kLongFront ? 0.0 : std::min(thr, 0.5 * shortest));
     return loopQuality(m, half) >= need;
   }
   static constexpr std::size_t kLongFront = 24;
