@@ -556,6 +556,17 @@ TEST(CutterPropertySeeds, Cylinder4104CrossingNextToTheCutItselfStops) { EXPECT_
 // slab deepen 20021: the groove's path crosses an edge next to its end under the walls.
 TEST(CutterPropertySeeds, SlabDeepen20021GrooveCrossingSnaps) { EXPECT_EQ(runDeepenSeed(shapes()[0], 20021), ""); }
 
+// Seeds that failed the floor when the fine-mesh halves fill (a long front's two halves
+// triangulated on their own) was merged with the sliver checks: the halves accepted
+// triangles down to half the half's shortest edge (slab 1039: a 0.011 mm groove wall).
+// The halves now never go under the sliver floor either.
+TEST(CutterPropertySeeds, Slab1039GrooveHalvesStayAboveTheFloor) { EXPECT_EQ(runSeed(shapes()[0], 1039), ""); }
+TEST(CutterPropertySeeds, Cube2008HalvesStayAboveTheFloor) { EXPECT_EQ(runSeed(shapes()[1], 2008), ""); }
+TEST(CutterPropertySeeds, Cylinder4016HalvesStayAboveTheFloor) { EXPECT_EQ(runSeed(shapes()[3], 4016), ""); }
+TEST(CutterPropertySeeds, CylinderDeepen23000HalvesStayAboveTheFloor) {
+  EXPECT_EQ(runDeepenSeed(shapes()[3], 23000), "");
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
