@@ -1086,8 +1086,8 @@ struct CutEngine::Impl {
 
   // Smallest angle of triangle (a, b, c) [radians].
   static double minAngle(const Vec3& a, const Vec3& b, const Vec3& c) {
-    auto at = [](const Vec3& p, const Vec3& q, const Vec3& r) {
-      return std::atan2((q - p).cross(r - p).norm(), (q - p).dot(r - p));
+    auto at = [](const Vec3& o, const Vec3& q, const Vec3& r) {
+      return std::atan2((q - o).cross(r - o).norm(), (q - o).dot(r - o));
     };
     const double x = at(a, b, c), y = at(b, c, a);
     return std::min({x, y, M_PI - x - y});
