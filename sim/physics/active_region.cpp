@@ -53,8 +53,8 @@ void wakeVertex(detail::ActiveSet& a, const detail::Cache& c, std::uint32_t j, b
 
 // Brings the set up to the cache and the mesh. Edits in place (a cut) keep every
 // vertex's state and wake only the vertices the edits touched (the journal's
-// vertices, the ends of its edges, the corners of its faces) and the ends of the new
-// springs: the cut's neighbourhood, not the whole tissue. Cost O(edits) plus, after a
+// vertices, the ends of its edges — every new spring is one — the corners of its faces):
+// the cut's neighbourhood, not the whole tissue. Cost O(edits) plus, after a
 // cache rebuild, O(springs) for the adjacency. A new layout (or the first step)
 // starts with every vertex awake; the quiet ones fall asleep within sleepAfter steps.
 void ensureActiveSet(Dynamics& s, const mesh::SurfaceMesh& m) {
@@ -111,10 +111,6 @@ void ensureActiveSet(Dynamics& s, const mesh::SurfaceMesh& m) {
     for (const mesh::Face f : m.editedFaces().subspan(a.journalF))
       if (!m.isDeleted(f))
         for (const mesh::Vertex v : m.vertices(f)) wakeVertex(a, c, v.idx(), true);
-    for (std::size_t k = std::min(seen, c.springs.size()); k < c.springs.size(); ++k) {
-      wakeVertex(a, c, c.springs[k].i, true);
-      wakeVertex(a, c, c.springs[k].j, true);
-    }
   }
   a.rebuilds = c.rebuilds;
   a.layoutVersion = m.layoutVersion();
@@ -174,9 +170,12 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
   double w2 = 0.0;
   for (const std::uint32_t i : a.list) w2 = std::max(w2, (tp.homeK + 2.0 * c.vertexStiffness[i]) * c.invMass[i]);
   const double need = std::ceil(dt * std::sqrt(w2) / 1.9);
+  // Only substeps commit the region before a later substep's check, so only they need
+  // the start saved for a rollback.
+  bool saved = false;
   const auto fallBack = [&] {
     // The monitored full step (substeps, then the implicit method) takes over.
-    for (std::size_t q = 0; q < m; ++q) {
+    for (std::size_t q = 0; saved && q < m; ++q) {
       x[a.list[q]] = a.x0[q];
       v[a.list[q]] = a.v0[q];
     }
@@ -185,14 +184,17 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
     a.layoutVersion = ~std::uint64_t{0};
     return step(full, state, mesh, dt);
   };
-  a.x0.resize(m);
-  a.v0.resize(m);
-  for (std::size_t q = 0; q < m; ++q) {
-    a.x0[q] = x[a.list[q]];
-    a.v0[q] = v[a.list[q]];
-  }
   if (!(need <= params.stability.maxSubsteps)) return fallBack();
   const int substeps = std::max(1, static_cast<int>(need));
+  if (substeps > 1) {
+    a.x0.resize(m);
+    a.v0.resize(m);
+    for (std::size_t q = 0; q < m; ++q) {
+      a.x0[q] = x[a.list[q]];
+      a.v0[q] = v[a.list[q]];
+    }
+    saved = true;
+  }
   const double h = dt / substeps;
 
   // Forces for the awake vertices at the old positions (sleepers are fixed).
