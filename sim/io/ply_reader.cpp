@@ -235,7 +235,9 @@ RawMesh parsePly(std::string_view data, const std::string& name, ImportReport* r
     if (body.binary() && minRow > 0 && static_cast<unsigned long long>(e.count) > body.remainingBytes() / minRow)
       body.fail("element '" + e.name + "' announces " + std::to_string(e.count) + " rows, more than the file holds");
     const std::string where = "element '" + e.name + "'";
-    for (long long r = 0; r < e.count; ++r) {
+    // Rows without properties hold nothing; looping over a lying count of them would hang.
+    const long long rows = e.props.empty() ? 0 : e.count;
+    for (long long r = 0; r < rows; ++r) {
       Eigen::Vector3d pt = Eigen::Vector3d::Zero();
       const long rowLine = body.line();
       for (std::size_t k = 0; k < e.props.size(); ++k) {

@@ -171,6 +171,24 @@ TEST(PlyReader, UnknownElementsSkippedAnywhere) {
   EXPECT_THAT(rep.warnings[0], HasSubstr("skipped element '3d_element' (2 rows)"));
 }
 
+TEST(PlyReader, ElementWithoutPropertiesHoldsNothing) {
+  // Found by the fuzzer: billions of empty rows once looped for minutes (rows of nothing
+  // consume no bytes, so no size check bounds them). Both encodings.
+  for (const char* format : {"ascii", "binary_little_endian"}) {
+    std::string text = std::string("ply\nformat ") + format +
+                       " 1.0\nelement note 4444444444\nelement vertex 4\nproperty float x\nproperty float "
+                       "y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n";
+    if (std::string(format) == "ascii")
+      text += asciiPlyBody();
+    else
+      text = text + binaryPly(false).substr(plyHeader("binary_little_endian").size());
+    ImportReport rep;
+    expectClosedTetra(soupOf(Format::Ply, text, &rep));
+    ASSERT_FALSE(rep.warnings.empty()) << format;
+    EXPECT_THAT(rep.warnings[0], HasSubstr("skipped element 'note' (4444444444 rows)")) << format;
+  }
+}
+
 TEST(PlyReader, TwoDElementUsedWhenNoFaces) {
   const std::string text =
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty "
