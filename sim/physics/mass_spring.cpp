@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -167,6 +168,13 @@ Worker& WorkerSlot::get() {
 
 // ---- the model's view of the state --------------------------------------------
 
+namespace detail {
+namespace {
+std::atomic<bool> gPerSpringLanes{false};
+}
+void forcePerSpringLanes(bool on) { gPerSpringLanes.store(on, std::memory_order_relaxed); }
+}  // namespace detail
+
 namespace {
 
 struct View {
@@ -223,6 +231,20 @@ void sizeScratch(Cache& c, std::size_t n) {
   for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n + 8, 0.0);
 }
 
+// The shared K of the CSR springs (every one with k ≠ 0 has k·rest = K to 4 ulp), or
+// nothing.
+std::optional<double> sharedStiffness(const Cache& c, std::size_t ns) {
+  std::optional<double> K;
+  for (std::size_t q = 0; q < ns; ++q) {
+    if (c.k[q] == 0.0) continue;  // adds nothing in either layout
+    const double kr = c.k[q] * c.rest[q];
+    if (!K) K = kr;
+    if (!std::isfinite(kr) || std::abs(kr - *K) > 4.0 * std::numeric_limits<double>::epsilon() * std::abs(*K))
+      return std::nullopt;
+  }
+  return K.value_or(0.0);
+}
+
 // The symplectic step's groups from the CSR: each vertex's neighbours in index order
 // (the lower ones come from earlier vertices' CSR rows, in row order, then its own row,
 // sorted), one rank per neighbour position; a group's lanes sorted by degree
@@ -262,9 +284,18 @@ void buildBlocks(Cache& c, std::size_t n) {
           c.rankStart[2 * g + h] + static_cast<std::uint32_t>(std::max(0L, degree(G * g + order[L * h])));
   }
   const std::size_t lanes = L * c.rankStart[2 * ng];
+  const std::optional<double> K =
+      detail::gPerSpringLanes.load(std::memory_order_relaxed) ? std::nullopt : sharedStiffness(c, ns);
+  c.laneLayout = K ? detail::LaneLayout::SharedK : detail::LaneLayout::PerSpring;
+  c.springK = K.value_or(0.0);
+  c.laneRest = 0.0;
+  if (K)
+    for (std::size_t q = 0; q < ns; ++q)
+      if (c.k[q] != 0.0) c.laneRest += 2.0 * c.rest[q];  // each spring has a lane at both ends
   c.rankX.assign(lanes, 0);
   c.rankK.assign(lanes, 0.0);
-  c.rankRest.assign(lanes, 0.0);
+  c.rankRest.assign(K ? 0 : lanes, 0.0);
+  c.rankRest.shrink_to_fit();
   c.halfSlot.assign(2 * ns, 0);
   for (std::size_t g = 0; g < ng; ++g) {
     const auto pad = static_cast<std::uint32_t>(3 * G * g);
@@ -279,7 +310,7 @@ void buildBlocks(Cache& c, std::size_t n) {
         const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
         c.rankX[at] = 3 * (atUpper[a] ? c.lower[q] : c.other[q]);
         c.rankK[at] = c.k[q];
-        c.rankRest[at] = c.rest[q];
+        if (!K) c.rankRest[at] = c.rest[q];
         c.halfSlot[2 * q + atUpper[a]] = static_cast<std::uint32_t>(at);
       }
     }
@@ -404,9 +435,12 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
     c.vertexStiffness[sp.j] -= sp.k;
     sp.k = sp.rest = 0.0;
     if (slot < c.nCsr) {
+      if (c.laneLayout == detail::LaneLayout::SharedK && c.k[slot] != 0.0) c.laneRest -= 2.0 * c.rest[slot];
       c.k[slot] = c.rest[slot] = 0.0;
-      for (int end = 0; end < 2; ++end)
-        c.rankK[c.halfSlot[2 * slot + end]] = c.rankRest[c.halfSlot[2 * slot + end]] = 0.0;
+      for (int end = 0; end < 2; ++end) {
+        c.rankK[c.halfSlot[2 * slot + end]] = 0.0;
+        if (c.laneLayout == detail::LaneLayout::PerSpring) c.rankRest[c.halfSlot[2 * slot + end]] = 0.0;
+      }
     }
     --c.liveSprings;
   };
@@ -721,7 +755,9 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.rankStart = c.rankStart.data();
   bs.rankX = c.rankX.data();
   bs.rankK = c.rankK.data();
-  bs.rankRest = c.rankRest.data();
+  const bool shared = c.laneLayout == detail::LaneLayout::SharedK;
+  bs.rankRest = shared ? nullptr : c.rankRest.data();
+  bs.springK = shared ? c.springK : 0.0;
   bs.f4 = a.f4;
   bs.slotVertex = c.slotVertex.data();
   bs.vertexSlot = c.vertexSlot.data();
@@ -779,6 +815,12 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     sums = symplecticGroups(args, 0, c.splitGroup);
     worker.wait();
     sums.add(job.sums);
+  }
+  if (c.laneLayout == detail::LaneLayout::SharedK) {
+    // The lanes summed k·l² − 2K·l; the constant part K·rest of each lane, here. The
+    // sum of the parts may round below 0 where the springs are at rest.
+    sums.spring0 += 0.25 * c.springK * c.laneRest;
+    if (sums.spring0 < 0.0) sums.spring0 = 0.0;  // (a NaN stays)
   }
   sums.spring0 += added;
   c.forceZero = true;

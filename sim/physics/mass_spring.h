@@ -138,6 +138,13 @@ struct CacheLineAllocator {
   friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) { return true; }
 };
 
+// The symplectic step's spring lanes (Cache::laneLayout): SharedK = far end and k
+// (12 bytes, one K for the mesh), PerSpring = far end, k and rest (20 bytes).
+enum class LaneLayout { SharedK, PerSpring };
+// For tests and benchmarks: build the per-spring lanes even where K is shared (takes
+// effect at the next cache rebuild; false = choose by the springs).
+void forcePerSpringLanes(bool on);
+
 struct Spring {
   std::uint32_t i, j;  // i < j
   double rest, k;
@@ -179,6 +186,13 @@ struct Cache {
   // halfSlot[2q + 1]: where CSR slot q sits (8·rank + lane) at its lower and its upper
   // end, so an edit can zero both. extraGroup: groups touched by added springs (their
   // forces go through f4). Two threads: groups [0, splitGroup) and the rest.
+  // Lane layout (spring_kernel.h): when every spring with k ≠ 0 has k·rest = one K to
+  // rounding (4 ulp; tissue_properties gives every edge k = K / rest, at load and after
+  // cuts), the lanes carry the far end and k only (12 bytes; rankRest empty, springK =
+  // K, laneRest = Σ rest over the live lanes for the energy's constant part); otherwise
+  // far end, k and rest (20 bytes).
+  LaneLayout laneLayout = LaneLayout::PerSpring;
+  double springK = 0.0, laneRest = 0.0;
   std::vector<std::uint32_t> rankStart, rankX, halfSlot;
   std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
   std::vector<std::uint8_t> slotVertex, vertexSlot, extraGroup;
@@ -218,7 +232,7 @@ struct ActiveSet {
   std::uint64_t rebuilds = std::numeric_limits<std::uint64_t>::max();
   std::uint64_t layoutVersion = std::numeric_limits<std::uint64_t>::max();
   std::size_t springsSeen = 0, journalV = 0, journalE = 0, journalF = 0;
-  std::uint64_t restarts = 0;  // times every vertex was woken (layout changes)
+  std::uint64_t restarts = 0;           // times every vertex was woken (layout changes)
   std::vector<Eigen::Vector3d> x0, v0;  // the listed vertices at the step's start (for a fallback)
 };
 }  // namespace detail

@@ -101,8 +101,10 @@ inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, 
 
 // A block's 8 lanes side by side, rank by rank (per lane the same operations in the
 // same order as one vertex at a time): the rank's arrays are read once, not once a
-// lane (~15 % faster than a vertex at a time).
+// lane (~15 % faster than a vertex at a time). Shared: the shared-K lane layout.
+template <bool Shared>
 void blockStepScalar(const BlockStep& c, FinishSums& out) {
+  const double sharedK = c.springK, twoK = 2.0 * c.springK;
   ScalarSums s;
   double pe[kLanes] = {};
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
@@ -119,16 +121,24 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
       }
       for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
         const std::uint32_t* J = c.rankX + kLanes * r;
-        const double* K = c.rankK + kLanes * r;
-        const double* R = c.rankRest + kLanes * r;
+        const double* Kr = c.rankK + kLanes * r;
         for (std::size_t lane = 0; lane < kLanes; ++lane) {
           const double* xj = c.x0 + J[lane];
           const double dx = xj[0] - xs[lane], dy = xj[1] - ys[lane], dz = xj[2] - zs[lane];
-          const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
-          const double st = len - R[lane];
-          const double kst = K[lane] * st;
-          pe[lane] += kst * st;
-          const double w = len > 0.0 ? kst / len : 0.0;
+          const double l2 = dx * dx + dy * dy + dz * dz;
+          const double len = std::sqrt(l2);
+          double w;
+          if constexpr (Shared) {
+            // (k·l − K)/l; k = 0 (padding, dead springs) gives nothing.
+            const bool on = Kr[lane] != 0.0 && len > 0.0;
+            pe[lane] += Kr[lane] * l2 - (on ? twoK * len : 0.0);
+            w = on ? (Kr[lane] * len - sharedK) / len : 0.0;
+          } else {
+            const double st = len - c.rankRest[kLanes * r + lane];
+            const double kst = Kr[lane] * st;
+            pe[lane] += kst * st;
+            w = len > 0.0 ? kst / len : 0.0;
+          }
           fx[lane] += w * dx;
           fy[lane] += w * dy;
           fz[lane] += w * dz;
@@ -188,6 +198,17 @@ LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k,
   const __m256d kst = _mm256_mul_pd(k, st);
   pe = _mm256_fmadd_pd(kst, st, pe);
   return _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ));
+}
+
+// The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
+// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
+LD_AVX2 inline __m256d sharedWeights4(const __m256d* d, __m256d k, __m256d sharedK, __m256d twoK, __m256d& pe) {
+  const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
+  const __m256d l = _mm256_sqrt_pd(l2);
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d on = _mm256_and_pd(_mm256_cmp_pd(l, zero, _CMP_GT_OQ), _mm256_cmp_pd(k, zero, _CMP_NEQ_UQ));
+  pe = _mm256_fnmadd_pd(_mm256_and_pd(on, twoK), l, _mm256_fmadd_pd(k, l2, pe));
+  return _mm256_and_pd(_mm256_div_pd(_mm256_fmsub_pd(k, l, sharedK), l), on);
 }
 
 // One spring's force (x, y, z, 0) into its lower vertex's sum and out of its far end.
@@ -275,9 +296,11 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
 
 // Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
 // springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
+template <bool Shared>
 LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
                              __m256d& pe) {
   const __m256d zero = _mm256_setzero_pd();
+  const __m256d sharedK = _mm256_set1_pd(c.springK), twoK = _mm256_set1_pd(2.0 * c.springK);
   const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
   __m256d xi[4];
   for (std::size_t u = 0; u < 4; ++u) xi[u] = _mm256_maskload_pd(xiAt[u], xyz);
@@ -288,7 +311,11 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
     __m256d d[4], dxyz[3];
     for (std::size_t u = 0; u < 4; ++u) d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x0 + J[u], xyz), xi[u]);
     transpose4(d, dxyz);
-    const __m256d w = springWeights4(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+    __m256d w;
+    if constexpr (Shared)
+      w = sharedWeights4(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
+    else
+      w = springWeights4(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
     fx = _mm256_fmadd_pd(w, dxyz[0], fx);
     fy = _mm256_fmadd_pd(w, dxyz[1], fy);
     fz = _mm256_fmadd_pd(w, dxyz[2], fz);
@@ -301,6 +328,7 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
   fa[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
 
+template <bool Shared>
 LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
   const __m256d zero = _mm256_setzero_pd();
   Acc2 acc{zero, zero, zero, zero, zero, zero};
@@ -321,7 +349,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
         xiAt[u] = c.x0 + 3 * (v[u] < rem ? t + v[u] : t);  // lanes past n: the group's first vertex
       }
       __m256d fa[4];
-      springs4(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
+      springs4<Shared>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
       for (std::size_t u = 0; u < 4; ++u) fv[v[u]] = fa[u];
     }
     if (c.extra[grp])
@@ -386,6 +414,17 @@ LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d 
   return _mm512_maskz_div_pd(pos, kst, l);
 }
 
+// The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
+// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
+LD_AVX512 inline __m512d sharedWeights8(const __m512d* d, __m512d k, __m512d sharedK, __m512d twoK, __m512d& pe) {
+  const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
+  const __m512d zero = _mm512_setzero_pd();
+  const __mmask8 on = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ), l2, zero, _CMP_GT_OQ);
+  const __m512d l = _mm512_sqrt_pd(l2);
+  pe = _mm512_mask3_fnmadd_pd(twoK, l, _mm512_fmadd_pd(k, l2, pe), on);
+  return _mm512_maskz_div_pd(on, _mm512_fmsub_pd(k, l, sharedK), l);
+}
+
 LD_AVX512 double springForcesAvx512(const SpringChunk& c) {
   const __m512d zero = _mm512_setzero_pd();
   __m512d pe = zero;
@@ -445,42 +484,49 @@ struct Acc512 {
 };
 
 struct Consts512 {
-  __m512d zero, dt, damp, homeK, grav[3];
+  __m512d zero, dt, damp, homeK, grav[3], sharedK, twoK;
   __m512i spread[3], regroup[3], toAxis[3], toAxisLast[3], toFlat[3], toFlatZ[3];
 };
 
 // One block's springs (lanes at positions xi, one register an axis), rank by rank:
 // far ends (x, y, z) by three-lane loads, transposed to axis registers (16 loads and
 // shuffles beat gathers here), summed per lane in registers.
-// One rank of 8 lanes (far-end offsets J, rest R, k K) into the lanes' sums.
-LD_AVX512 inline void rank8(const double* x0, const std::uint32_t* J, const double* R, const double* K,
-                            const __m512d* xi, __m512d* f, __m512d& pe) {
+// One rank of 8 lanes (lane q of the ranks: far-end offsets, k and, per-spring
+// layout, rest) into the lanes' sums.
+template <bool Shared>
+LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* f,
+                            __m512d& pe) {
+  const std::uint32_t* J = c.rankX + q;
   __m256d d[8];
-  for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, x0 + J[u]);
+  for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_maskz_loadu_pd(0x7, c.x0 + J[u]);
   __m512d dxyz[3];
   transpose8(d, dxyz);
   for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
-  const __m512d w = springWeights8(dxyz, _mm512_load_pd(R), _mm512_load_pd(K), pe);
+  __m512d w;
+  if constexpr (Shared)
+    w = sharedWeights8(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
+  else
+    w = springWeights8(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
   for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
 }
 
 // The group's two blocks (lanes at positions xi[h], one register an axis), rank by
 // rank, both blocks in one loop while both have ranks (two independent chains of
 // sqrt and div in flight), then the rest of the longer one; sums in registers.
+template <bool Shared>
 LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
                                  __m512d (*f)[3], __m512d& pe) {
   __m512d a[3] = {k.zero, k.zero, k.zero}, b[3] = {k.zero, k.zero, k.zero};
   __m512d ea = pe, eb = k.zero;
-  const double* x0 = c.x0;
   const std::uint32_t r0 = c.rankStart[2 * grp], r1 = c.rankStart[2 * grp + 1], r2 = c.rankStart[2 * grp + 2];
   const std::size_t both = std::min(r1 - r0, r2 - r1);
   std::size_t qa = kLanes * r0, qb = kLanes * r1;
   for (std::size_t r = 0; r < both; ++r, qa += kLanes, qb += kLanes) {
-    rank8(x0, c.rankX + qa, c.rankRest + qa, c.rankK + qa, xi[0], a, ea);
-    rank8(x0, c.rankX + qb, c.rankRest + qb, c.rankK + qb, xi[1], b, eb);
+    rank8<Shared>(c, k, qa, xi[0], a, ea);
+    rank8<Shared>(c, k, qb, xi[1], b, eb);
   }
-  for (; qa < kLanes * r1; qa += kLanes) rank8(x0, c.rankX + qa, c.rankRest + qa, c.rankK + qa, xi[0], a, ea);
-  for (; qb < kLanes * r2; qb += kLanes) rank8(x0, c.rankX + qb, c.rankRest + qb, c.rankK + qb, xi[1], b, eb);
+  for (; qa < kLanes * r1; qa += kLanes) rank8<Shared>(c, k, qa, xi[0], a, ea);
+  for (; qb < kLanes * r2; qb += kLanes) rank8<Shared>(c, k, qb, xi[1], b, eb);
   for (int q = 0; q < 3; ++q) {
     f[0][q] = a[q];
     f[1][q] = b[q];
@@ -542,9 +588,12 @@ LD_AVX512 inline __m512i lanes8(const std::uint8_t* p) {
   return _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
 }
 
+template <bool Shared>
 LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   Consts512 k;
   k.zero = _mm512_setzero_pd();
+  k.sharedK = _mm512_set1_pd(c.springK);
+  k.twoK = _mm512_set1_pd(2.0 * c.springK);
   k.dt = _mm512_set1_pd(c.dt);
   k.damp = _mm512_set1_pd(c.damp);
   k.homeK = _mm512_set1_pd(c.homeK);
@@ -592,7 +641,7 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       const __m512i sv = lanes8(c.slotVertex + t + kLanes * h);
       for (int a = 0; a < 3; ++a) xi[h][a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
     }
-    springs8x2(c, k, grp, xi, f, pe);
+    springs8x2<Shared>(c, k, grp, xi, f, pe);
     const bool extra = c.extra[grp] != 0;
     for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
       const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);
@@ -685,14 +734,12 @@ void blockStep(Kernel kern, const BlockStep& c, FinishSums& s) {
   switch (kern) {
 #ifdef LD_X86_KERNELS
     case Kernel::Avx512:
-      blockStepAvx512(c, s);
-      return;
+      return c.rankRest ? blockStepAvx512<false>(c, s) : blockStepAvx512<true>(c, s);
     case Kernel::Avx2:
-      blockStepAvx2(c, s);
-      return;
+      return c.rankRest ? blockStepAvx2<false>(c, s) : blockStepAvx2<true>(c, s);
 #endif
     default:
-      blockStepScalar(c, s);
+      return c.rankRest ? blockStepScalar<false>(c, s) : blockStepScalar<true>(c, s);
   }
 }
 

@@ -57,11 +57,21 @@ double springForces(Kernel kern, const SpringChunk& c);
 // springs (each spring is evaluated at both ends: no scatter, no shared writes; any
 // split into group ranges gives the same bits), adds f4 (4 doubles a vertex, set by the
 // springs added since the last rebuild) on groups flagged in `extra` (and zeroes it),
-// and integrates:
+// and integrates (each spring's force factor w below):
 // v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
 // x1 = x0 + dt·v1, im = 1/mass (0 where mass ≤ 0, as the cache's invMass),
 // live = (im ≠ 0). All arrays are whole (indexed by vertex);
 // positions and velocities 3 doubles a vertex.
+// Two lane layouts:
+//  - per spring (rankRest set, 20 bytes a lane: far end, k, rest):
+//    w = k(l − rest)/l, padding k = rest = 0;
+//  - shared K (rankRest null, 12 bytes a lane: far end, k). Every spring's rest is
+//    K/k for one K of the mesh (the thesis's k = K/rest; springK = K), so
+//    w = (k·l − K)/l, and 0 where k = 0 (padding, dead springs) or l = 0. The ranks
+//    stream 40 % fewer bytes; the rounding differs from the other layout in the last
+//    bits. The spring energy k(l − K/k)² = k·l² − 2K·l + K·rest is summed without its
+//    constant part (the caller adds K·Σ rest over the lanes: see FinishSums::pe).
+
 inline constexpr std::size_t kLanes = 8;
 inline constexpr std::size_t kGroup = 16;
 // From this many vertices on, the step prefetches the vertex arrays a few groups ahead
@@ -81,12 +91,14 @@ struct BlockStep {
   std::size_t n = 0;                    // vertices
   std::size_t g0 = 0, g1 = 0;           // groups to step
   double dt = 0, damp = 1, homeK = 0;
+  double springK = 0;  // K of the shared-K layout (rankRest null)
   double g[3] = {0, 0, 0};
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
 // Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it
 // bounds the largest |v1|²), Σ stiffness·|v1|² (bounds the spring energy change), and
-// Σ k (l − rest)² over the ranks at x0 (four times the spring energy).
+// Σ k (l − rest)² over the ranks at x0 (four times the spring energy; in the shared-K
+// layout Σ (k·l² − 2K·l) over the lanes with k ≠ 0: add K·Σ rest for the same sum).
 struct FinishSums {
   double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxComp2 = 0, kv2 = 0, pe = 0;
 };

@@ -3,6 +3,7 @@
 // vertices, springs added since the last rebuild), with gravity, external forces and
 // motion, every compiled path gives the scalar result to rounding, one and two threads
 // agree bit for bit on each path, and the monitor's decisions are the same.
+#include <cmath>
 #include <optional>
 #include <random>
 #include <string>
@@ -37,13 +38,28 @@ std::vector<Kernel> compiledKernels() {
   return out;
 }
 
+// Builds the per-spring lanes (20 bytes) while it lives, whatever the springs.
+struct ForcedPerSpringLanes {
+  ForcedPerSpringLanes() { detail::forcePerSpringLanes(true); }
+  ~ForcedPerSpringLanes() { detail::forcePerSpringLanes(false); }
+  ForcedPerSpringLanes(const ForcedPerSpringLanes&) = delete;
+  ForcedPerSpringLanes& operator=(const ForcedPerSpringLanes&) = delete;
+};
+
 // A cells x cells grid (50: 2601 vertices, the two-thread split applies) cut up by
 // local edits after its cache was built, pushed, moving, with gravity and a few
 // external forces. Filled in place: moving a State is a new layout (its cache would be
-// rebuilt).
-void editedScene(Params& p, State& s, int cells = 50) {
+// rebuilt). jitter: the grid's vertices moved at random before the tissue properties
+// are attached (every rest length different).
+void editedScene(Params& p, State& s, int cells = 50, bool jitter = false) {
   p.tissue.gravity = Vec3(0.0, -2.0, -9810.0);
-  s = makeState(makeGrid(cells, cells, 200.0 / cells), p.tissue);
+  mesh::SurfaceMesh grid = makeGrid(cells, cells, 200.0 / cells);
+  if (jitter) {
+    std::mt19937 jr(11);
+    std::uniform_real_distribution<double> u(-0.3, 0.3);
+    for (Vec3& x : grid.positions()) x += (200.0 / cells) * Vec3(u(jr), u(jr), u(jr));
+  }
+  s = makeState(std::move(grid), p.tissue);
   s.mesh.position(nearestVertex(s.mesh, Vec3(100, 100, 0))).z() -= 5.0;
   step(p, s, 1e-4);  // the cache exists: the edits below go through the journal
   std::mt19937 rng(5);
@@ -120,40 +136,53 @@ TEST(SpringKernel, EveryPathMatchesTheScalarStepOnAnEditedMesh) {
   }
 }
 
-// The symplectic step's own layout (vertex groups, lanes sorted by degree, each spring
-// at both ends, springs added through the journal in f4) against the force pass, which
-// walks the CSR by lower vertex: v1 = v0 + dt·f(x0, v0)/m, x1 = x0 + dt·v1 on every
-// path, one and two threads, with new vertices past the last full group of 16.
-void expectStepMatchesForcePass(int cells) {
+// One symplectic step of s against the force pass, which walks the CSR by lower
+// vertex: v1 = v0 + dt·f(x0, v0)/m, x1 = x0 + dt·v1. Returns the largest velocity error
+// relative to the largest dt·|f|/m.
+double oneStepAgainstForcePass(const Params& p, State& s) {
   constexpr double dt = 1e-4;
+  const std::vector<Vec3> f = forces(p, s);
+  const std::vector<Vec3> x0 = s.mesh.positions(), v0 = velocities(s);
+  const auto& mass = s.mesh.getVertexProperty<double>(kMassProp).vector();
+  EXPECT_TRUE(rawStep(p, s, Method::SymplecticEuler, dt));
+  const auto& x1 = s.mesh.positions();
+  const auto& v1 = velocities(s);
+  double vErr = 0.0, xErr = 0.0, fMax = 0.0;
+  for (std::size_t i = 0; i < x0.size(); ++i) {
+    const bool live = !s.mesh.isDeleted(mesh::Vertex(static_cast<int>(i))) && mass[i] > 0.0;
+    const Vec3 v = live ? Vec3(v0[i] + (dt / mass[i]) * f[i]) : Vec3::Zero();
+    vErr = std::max(vErr, (v1[i] - v).norm());
+    xErr = std::max(xErr, (x1[i] - (x0[i] + dt * v1[i])).norm());
+    if (live) fMax = std::max(fMax, (dt / mass[i]) * f[i].norm());
+  }
+  EXPECT_GT(fMax, 1.0) << "the forces should change the velocities noticeably";
+  EXPECT_LT(xErr, 1e-12);
+  return vErr / fMax;
+}
+
+// The symplectic step's own layout (vertex groups, lanes sorted by degree, each spring
+// at both ends, springs added through the journal in f4) against the force pass on
+// every path, one and two threads, with new vertices past the last full group of 16,
+// in both lane layouts.
+void expectStepMatchesForcePass(int cells) {
   for (Kernel k : compiledKernels()) {
     SCOPED_TRACE(std::string(detail::kernelName(k)));
     ForcedKernel fk(k);
-    for (int threads : {1, 2}) {
-      SCOPED_TRACE(threads);
-      Params p;
-      p.threads = threads;
-      State s;
-      editedScene(p, s, cells);
-      ASSERT_NE(s.mesh.verticesSize() % detail::kGroup, 0u) << "want a partial last group";
-      const std::vector<Vec3> f = forces(p, s);
-      ASSERT_GT(s.cache.springs.size(), s.cache.nCsr);
-      const std::vector<Vec3> x0 = s.mesh.positions(), v0 = velocities(s);
-      const auto& mass = s.mesh.getVertexProperty<double>(kMassProp).vector();
-      ASSERT_TRUE(rawStep(p, s, Method::SymplecticEuler, dt));
-      const auto& x1 = s.mesh.positions();
-      const auto& v1 = velocities(s);
-      double vErr = 0.0, xErr = 0.0, fMax = 0.0;
-      for (std::size_t i = 0; i < x0.size(); ++i) {
-        const bool live = !s.mesh.isDeleted(mesh::Vertex(static_cast<int>(i))) && mass[i] > 0.0;
-        const Vec3 v = live ? Vec3(v0[i] + (dt / mass[i]) * f[i]) : Vec3::Zero();
-        vErr = std::max(vErr, (v1[i] - v).norm());
-        xErr = std::max(xErr, (x1[i] - (x0[i] + dt * v1[i])).norm());
-        if (live) fMax = std::max(fMax, (dt / mass[i]) * f[i].norm());
+    for (bool perSpring : {false, true}) {
+      SCOPED_TRACE(perSpring ? "per-spring lanes" : "shared-K lanes");
+      std::optional<ForcedPerSpringLanes> forced;
+      if (perSpring) forced.emplace();
+      for (int threads : {1, 2}) {
+        SCOPED_TRACE(threads);
+        Params p;
+        p.threads = threads;
+        State s;
+        editedScene(p, s, cells);
+        ASSERT_NE(s.mesh.verticesSize() % detail::kGroup, 0u) << "want a partial last group";
+        EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+        EXPECT_GT(s.cache.springs.size(), s.cache.nCsr);
+        EXPECT_EQ(s.cache.laneLayout, perSpring ? detail::LaneLayout::PerSpring : detail::LaneLayout::SharedK);
       }
-      ASSERT_GT(fMax, 1.0) << "the forces should change the velocities noticeably";
-      EXPECT_LT(vErr, 1e-9 * fMax);
-      EXPECT_LT(xErr, 1e-12);
     }
   }
 }
@@ -191,6 +220,121 @@ TEST(SpringKernel, ForcesAndMonitoredStepsAgreeAcrossPaths) {
     }
     EXPECT_EQ(s.stability.warnings, ref.stability.warnings);
     EXPECT_LT(testutil::maxDiff(s.mesh.positions(), ref.mesh.positions()), 1e-9);
+  }
+}
+
+// Tissue springs (k = K / rest at load and on every edge a cut makes) share one K: the
+// step's lanes carry the far end and k only, and stay so through edits in place and a
+// rebuild after cuts.
+TEST(SpringKernel, TissueSpringsGetTheSharedKLanes) {
+  Params p;
+  State s;
+  editedScene(p, s, 50, true);
+  EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::SharedK) << "after edits in place";
+  EXPECT_TRUE(s.cache.rankRest.empty());
+  EXPECT_NEAR(s.cache.springK, p.tissue.K, 4e-16 * p.tissue.K);
+  ASSERT_TRUE(rawStep(p, s, Method::SymplecticEuler, 1e-4));
+  s.invalidate();  // a rebuild: the cut edges join the ranks
+  ASSERT_TRUE(rawStep(p, s, Method::SymplecticEuler, 1e-4));
+  EXPECT_EQ(s.cache.springs.size(), s.cache.nCsr) << "rebuilt";
+  EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::SharedK) << "after a rebuild with cut edges";
+  EXPECT_NEAR(s.cache.springK, p.tissue.K, 4e-16 * p.tissue.K);
+  {
+    ForcedPerSpringLanes forced;
+    s.invalidate();
+    ASSERT_TRUE(rawStep(p, s, Method::SymplecticEuler, 1e-4));
+    EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::PerSpring);
+    EXPECT_EQ(s.cache.rankRest.size(), s.cache.rankK.size());
+  }
+}
+
+// The two lane layouts on a mesh whose rest lengths all differ (jittered grid, cut up,
+// moving): 10 steps agree to rounding on every path, one and two threads (two threads
+// bit-identical to one in each layout), and so does the monitor's energy (its budget
+// after a monitored step: the shared-K lanes sum the energy without its constant part).
+TEST(SpringKernel, SharedKLanesMatchPerSpringLanes) {
+  constexpr double dt = 1e-4;
+  constexpr int kSteps = 10;
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel fk(k);
+    std::vector<Vec3> oneThread[2];
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(threads);
+      Params p;
+      p.threads = threads;
+      State shared, perSpring;
+      editedScene(p, shared, 50, true);
+      {
+        ForcedPerSpringLanes forced;
+        editedScene(p, perSpring, 50, true);
+      }
+      ASSERT_EQ(shared.cache.laneLayout, detail::LaneLayout::SharedK);
+      ASSERT_EQ(perSpring.cache.laneLayout, detail::LaneLayout::PerSpring);
+      for (int i = 0; i < kSteps; ++i) {
+        ASSERT_TRUE(rawStep(p, shared, Method::SymplecticEuler, dt));
+        ASSERT_TRUE(rawStep(p, perSpring, Method::SymplecticEuler, dt));
+      }
+      ASSERT_GT(shared.cache.springs.size(), shared.cache.nCsr) << "springs added through the journal";
+      const double xScale = maxNorm(perSpring.mesh.positions()), vScale = maxNorm(velocities(perSpring));
+      ASSERT_GT(vScale, 1.0);
+      EXPECT_LT(testutil::maxDiff(shared.mesh.positions(), perSpring.mesh.positions()), 1e-14 * xScale);
+      EXPECT_LT(testutil::maxDiff(velocities(shared), velocities(perSpring)), 1e-12 * vScale);
+      EXPECT_NE(shared.mesh.positions(), perSpring.mesh.positions()) << "not the same arithmetic";
+      for (int layout = 0; layout < 2; ++layout) {
+        const State& st = layout ? perSpring : shared;
+        if (threads == 1)
+          oneThread[layout] = st.mesh.positions();
+        else
+          EXPECT_EQ(st.mesh.positions(), oneThread[layout]) << "two threads must be bit-identical to one";
+      }
+      // The energy: the budget a monitored step derives from the sweep's sums.
+      step(p, shared, dt);
+      step(p, perSpring, dt);
+      ASSERT_TRUE(std::isfinite(shared.energyBudget));
+      EXPECT_NEAR(shared.energyBudget, perSpring.energyBudget, 1e-12 * perSpring.energyBudget);
+      const Energy e = energy(p, perSpring);
+      EXPECT_GT(e.spring, 0.1 * perSpring.energyBudget) << "the springs' share is large enough to test";
+    }
+  }
+}
+
+// A mesh whose springs do not share one K (one spring set by hand; edges a cut
+// initialised with another K) gets the per-spring lanes at its next rebuild, and the
+// step still agrees with the force pass.
+TEST(SpringKernel, PerSpringLanesWhenKIsNotShared) {
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel fk(k);
+    {
+      Params p;
+      State s;
+      editedScene(p, s, 50, true);
+      auto kp = s.mesh.getEdgeProperty<double>(kStiffnessProp);
+      const mesh::Edge e = *s.mesh.edges().begin();
+      kp[e] *= 1.5;
+      s.invalidate();
+      EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+      EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::PerSpring) << "one spring set by hand";
+      kp[e] /= 1.5;
+      s.invalidate();
+      EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+      EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::SharedK) << "restored";
+    }
+    {
+      Params p;
+      State s;
+      editedScene(p, s, 50, true);
+      TissueParams other = p.tissue;
+      other.K = 2.0 * p.tissue.K;
+      std::mt19937 rng(3);
+      testutil::randomEdits(s.mesh, other, rng, 10);  // new edges with k = 2K / rest
+      EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+      EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::SharedK) << "edits in place: added springs are not lanes";
+      s.invalidate();
+      EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+      EXPECT_EQ(s.cache.laneLayout, detail::LaneLayout::PerSpring) << "rebuilt with two Ks";
+    }
   }
 }
 
