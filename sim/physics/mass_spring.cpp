@@ -737,6 +737,7 @@ struct SymplecticArgs {
   double* f4;
   double dt;
   detail::Kernel kernel;
+  bool energy;  // the monitor's sums: spring energy at x0, Σ K_i|v1_i|²
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
@@ -758,6 +759,7 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   const bool shared = c.laneLayout == detail::LaneLayout::SharedK;
   bs.rankRest = shared ? nullptr : c.rankRest.data();
   bs.springK = shared ? c.springK : 0.0;
+  bs.energy = a.energy;
   bs.f4 = a.f4;
   bs.slotVertex = c.slotVertex.data();
   bs.vertexSlot = c.vertexSlot.data();
@@ -797,12 +799,14 @@ struct SymplecticJob {
 // v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one pass over the vertex blocks
 // (two threads: each takes its blocks; a vertex's result does not depend on which
 // thread does it, so the result is bit-identical to one thread).
+// energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|²) are not
+// taken (spring0 then holds the added springs' energy only).
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
-                          int threads) {
+                          int threads, bool energy = true) {
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
-  const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel()};
+  const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel(), energy};
   const double added = addedSprings(w, raw(x0), f4);
   const std::size_t ng = c.extraGroup.size();
   SweepSums sums;
@@ -816,7 +820,7 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     worker.wait();
     sums.add(job.sums);
   }
-  if (c.laneLayout == detail::LaneLayout::SharedK) {
+  if (energy && c.laneLayout == detail::LaneLayout::SharedK) {
     // The lanes summed k·l² − 2K·l; the constant part K·rest of each lane, here. The
     // sum of the parts may round below 0 where the springs are at rest.
     sums.spring0 += 0.25 * c.springK * c.laneRest;
@@ -1060,7 +1064,7 @@ struct Outcome {
 Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View& w, Cache& c, const Vec3* x0,
                 const Vec3* v0, Vec3* x1, Vec3* v1, double dt, double budget) {
   if (m == Method::SymplecticEuler) {
-    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads);
+    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled);
     if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
     return {checkSymplectic(o, w, x1, v1, s, budget, dt), {s.spring0 + s.home0, s.ke0}};
   }
@@ -1136,7 +1140,7 @@ bool rawStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, Met
   bool finite = true;
   if (method == Method::SymplecticEuler)
     finite = finiteSums(symplecticEuler(w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(),
-                                        c.vb.data(), dt, params.threads));
+                                        c.vb.data(), dt, params.threads, false));
   else
     integrate(method, params, w, c, mesh.positions().data(), velocities(mesh).data(), c.xb.data(), c.vb.data(), dt);
   commit(state, mesh);

@@ -32,11 +32,12 @@ namespace {
 constexpr std::size_t kAhead = 4;
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
+  const double* stiffness = c.energy ? c.stiffness : c.mass;  // unread without the energy
   if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
   const std::size_t t = kGroup * (grp + kAhead);
   for (const double* a : {c.x0, c.v0, c.home, c.ext})
     for (std::size_t o = 0; o < 3 * kGroup; o += 8) __builtin_prefetch(a + 3 * t + o);
-  for (const double* a : {c.mass, c.stiffness})
+  for (const double* a : {c.mass, stiffness})
     for (std::size_t o = 0; o < kGroup; o += 8) __builtin_prefetch(a + t + o);
 }
 #else
@@ -76,8 +77,9 @@ double springForcesScalar(const SpringChunk& c) {
 struct ScalarSums {
   double ke1 = 0, home1 = 0, v2 = 0, work = 0, maxc = 0, kv2 = 0;
 };
+template <bool Energy>
 inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, ScalarSums& s) {
-  const double m = c.mass[t], kt = c.stiffness[t];
+  const double m = c.mass[t], kt = Energy ? c.stiffness[t] : 0.0;
   const double im = m > 0.0 ? 1.0 / m : 0.0;  // as the cache's 1/mass, one stream fewer
   const bool live = im != 0.0;
   for (std::size_t a = 0; a < 3; ++a) {
@@ -91,7 +93,7 @@ inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, 
     c.x1[b] = p;
     const double uu = u * u;
     s.ke1 += m * uu;
-    s.kv2 += kt * uu;
+    if constexpr (Energy) s.kv2 += kt * uu;
     s.v2 += uu;
     s.maxc = std::max(s.maxc, uu);
     s.work += (c.ext[b] + m * c.g[a]) * e;
@@ -102,7 +104,7 @@ inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, 
 // A block's 8 lanes side by side, rank by rank (per lane the same operations in the
 // same order as one vertex at a time): the rank's arrays are read once, not once a
 // lane (~15 % faster than a vertex at a time). Shared: the shared-K lane layout.
-template <bool Shared>
+template <bool Shared, bool Energy>
 void blockStepScalar(const BlockStep& c, FinishSums& out) {
   const double sharedK = c.springK, twoK = 2.0 * c.springK;
   ScalarSums s;
@@ -131,12 +133,12 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
           if constexpr (Shared) {
             // (k·l − K)/l; k = 0 (padding, dead springs) gives nothing.
             const bool on = Kr[lane] != 0.0 && len > 0.0;
-            pe[lane] += Kr[lane] * l2 - (on ? twoK * len : 0.0);
+            if constexpr (Energy) pe[lane] += Kr[lane] * l2 - (on ? twoK * len : 0.0);
             w = on ? (Kr[lane] * len - sharedK) / len : 0.0;
           } else {
             const double st = len - c.rankRest[kLanes * r + lane];
             const double kst = Kr[lane] * st;
-            pe[lane] += kst * st;
+            if constexpr (Energy) pe[lane] += kst * st;
             w = len > 0.0 ? kst / len : 0.0;
           }
           fx[lane] += w * dx;
@@ -153,7 +155,7 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
           for (int a = 0; a < 3; ++a) f[a] += fa[a];
           std::fill_n(fa, 4, 0.0);
         }
-        integrateScalar(c, i, f, s);
+        integrateScalar<Energy>(c, i, f, s);
       }
     }
   }
@@ -191,23 +193,25 @@ LD_AVX2 inline void transpose4(const __m256d* d, __m256d* xyz) {
 
 // k(l − rest)/l of four springs with difference vectors d (x, y, z registers), 0 where
 // l = 0; adds k(l − rest)² to pe.
+template <bool Energy = true>
 LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k, __m256d& pe) {
   const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
   const __m256d l = _mm256_sqrt_pd(l2);
   const __m256d st = _mm256_sub_pd(l, rest);
   const __m256d kst = _mm256_mul_pd(k, st);
-  pe = _mm256_fmadd_pd(kst, st, pe);
+  if constexpr (Energy) pe = _mm256_fmadd_pd(kst, st, pe);
   return _mm256_and_pd(_mm256_div_pd(kst, l), _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ));
 }
 
 // The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
 // k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
+template <bool Energy>
 LD_AVX2 inline __m256d sharedWeights4(const __m256d* d, __m256d k, __m256d sharedK, __m256d twoK, __m256d& pe) {
   const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
   const __m256d l = _mm256_sqrt_pd(l2);
   const __m256d zero = _mm256_setzero_pd();
   const __m256d on = _mm256_and_pd(_mm256_cmp_pd(l, zero, _CMP_GT_OQ), _mm256_cmp_pd(k, zero, _CMP_NEQ_UQ));
-  pe = _mm256_fnmadd_pd(_mm256_and_pd(on, twoK), l, _mm256_fmadd_pd(k, l2, pe));
+  if constexpr (Energy) pe = _mm256_fnmadd_pd(_mm256_and_pd(on, twoK), l, _mm256_fmadd_pd(k, l2, pe));
   return _mm256_and_pd(_mm256_div_pd(_mm256_fmsub_pd(k, l, sharedK), l), on);
 }
 
@@ -254,6 +258,7 @@ struct Acc2 {
 
 // Four vertices (12 doubles, 3 registers) from arrays that hold all of them; the
 // forces fa (x, y, z, 0 a vertex) regrouped to 3 a vertex.
+template <bool Energy>
 LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double* x0, const double* v0,
                             const double* home, const double* ext, const double* mass, const double* stiff, double* x1,
                             double* v1, const __m256d* grav, Acc2& acc) {
@@ -269,7 +274,7 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
                           _mm256_permute4x64_pd(imv, 0xFE)};
   const __m256d m3[3] = {_mm256_permute4x64_pd(mv, 0x40), _mm256_permute4x64_pd(mv, 0xA5),
                          _mm256_permute4x64_pd(mv, 0xFE)};
-  const __m256d kv = _mm256_loadu_pd(stiff);
+  const __m256d kv = Energy ? _mm256_loadu_pd(stiff) : zero;
   const __m256d k3[3] = {_mm256_permute4x64_pd(kv, 0x40), _mm256_permute4x64_pd(kv, 0xA5),
                          _mm256_permute4x64_pd(kv, 0xFE)};
   for (int r = 0; r < 3; ++r) {
@@ -285,7 +290,7 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
     _mm256_storeu_pd(x1 + 4 * r, p);
     const __m256d uu = _mm256_mul_pd(u, u);
     acc.ke = _mm256_fmadd_pd(m3[r], uu, acc.ke);
-    acc.kv2 = _mm256_fmadd_pd(k3[r], uu, acc.kv2);
+    if constexpr (Energy) acc.kv2 = _mm256_fmadd_pd(k3[r], uu, acc.kv2);
     acc.v2 = _mm256_add_pd(acc.v2, uu);
     acc.maxc = _mm256_max_pd(acc.maxc, uu);
     acc.work = _mm256_fmadd_pd(_mm256_fmadd_pd(m3[r], grav[r], E), e, acc.work);
@@ -296,7 +301,7 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
 
 // Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
 // springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
-template <bool Shared>
+template <bool Shared, bool Energy>
 LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
                              __m256d& pe) {
   const __m256d zero = _mm256_setzero_pd();
@@ -313,9 +318,9 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
     transpose4(d, dxyz);
     __m256d w;
     if constexpr (Shared)
-      w = sharedWeights4(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
+      w = sharedWeights4<Energy>(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
     else
-      w = springWeights4(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+      w = springWeights4<Energy>(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
     fx = _mm256_fmadd_pd(w, dxyz[0], fx);
     fy = _mm256_fmadd_pd(w, dxyz[1], fy);
     fz = _mm256_fmadd_pd(w, dxyz[2], fz);
@@ -328,7 +333,7 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
   fa[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
 
-template <bool Shared>
+template <bool Shared, bool Energy>
 LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
   const __m256d zero = _mm256_setzero_pd();
   Acc2 acc{zero, zero, zero, zero, zero, zero};
@@ -349,7 +354,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
         xiAt[u] = c.x0 + 3 * (v[u] < rem ? t + v[u] : t);  // lanes past n: the group's first vertex
       }
       __m256d fa[4];
-      springs4<Shared>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
+      springs4<Shared, Energy>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
       for (std::size_t u = 0; u < 4; ++u) fv[v[u]] = fa[u];
     }
     if (c.extra[grp])
@@ -361,8 +366,8 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
     for (std::size_t q = 0; q < rem; q += 4) {
       const std::size_t t4 = t + q, rem4 = std::min<std::size_t>(4, rem - q), b = 3 * t4;
       if (rem4 == 4) {
-        finish4(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.mass + t4, c.stiffness + t4, c.x1 + b, c.v1 + b,
-                grav, acc);
+        finish4<Energy>(c, fv + q, c.x0 + b, c.v0 + b, c.home + b, c.ext + b, c.mass + t4, c.stiffness + t4, c.x1 + b,
+                        c.v1 + b, grav, acc);
         continue;
       }
       // The last 1–3 vertices through the same lanes, padded with massless zeros.
@@ -371,8 +376,8 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
       for (int a = 0; a < 4; ++a) std::copy(src[a], src[a] + 3 * rem4, buf[a]);
       for (std::size_t u = rem4; u < 4; ++u) fv[q + u] = zero;
       std::copy(c.mass + t4, c.mass + t4 + rem4, mass);
-      std::copy(c.stiffness + t4, c.stiffness + t4 + rem4, stiff);
-      finish4(c, fv + q, buf[0], buf[1], buf[2], buf[3], mass, stiff, buf[4], buf[5], grav, acc);
+      if constexpr (Energy) std::copy(c.stiffness + t4, c.stiffness + t4 + rem4, stiff);
+      finish4<Energy>(c, fv + q, buf[0], buf[1], buf[2], buf[3], mass, stiff, buf[4], buf[5], grav, acc);
       std::copy(buf[4], buf[4] + 3 * rem4, c.x1 + b);
       std::copy(buf[5], buf[5] + 3 * rem4, c.v1 + b);
     }
@@ -404,24 +409,26 @@ LD_AVX512 inline void transpose8(const __m256d* d, __m512d* xyz) {
 // k(l − rest)/l of eight springs with difference vectors d (x, y, z registers), 0
 // where l = 0; adds k(l − rest)² to pe. sqrt and div: fast on this CPU's 512-bit units
 // (rsqrt14 and two Newton steps measured slower) and rounded as the scalar path is.
+template <bool Energy = true>
 LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d k, __m512d& pe) {
   const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
   const __mmask8 pos = _mm512_cmp_pd_mask(l2, _mm512_setzero_pd(), _CMP_GT_OQ);
   const __m512d l = _mm512_sqrt_pd(l2);
   const __m512d st = _mm512_sub_pd(l, rest);
   const __m512d kst = _mm512_mul_pd(k, st);
-  pe = _mm512_fmadd_pd(kst, st, pe);
+  if constexpr (Energy) pe = _mm512_fmadd_pd(kst, st, pe);
   return _mm512_maskz_div_pd(pos, kst, l);
 }
 
 // The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
 // k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
+template <bool Energy>
 LD_AVX512 inline __m512d sharedWeights8(const __m512d* d, __m512d k, __m512d sharedK, __m512d twoK, __m512d& pe) {
   const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
   const __m512d zero = _mm512_setzero_pd();
   const __mmask8 on = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ), l2, zero, _CMP_GT_OQ);
   const __m512d l = _mm512_sqrt_pd(l2);
-  pe = _mm512_mask3_fnmadd_pd(twoK, l, _mm512_fmadd_pd(k, l2, pe), on);
+  if constexpr (Energy) pe = _mm512_mask3_fnmadd_pd(twoK, l, _mm512_fmadd_pd(k, l2, pe), on);
   return _mm512_maskz_div_pd(on, _mm512_fmsub_pd(k, l, sharedK), l);
 }
 
@@ -493,7 +500,7 @@ struct Consts512 {
 // shuffles beat gathers here), summed per lane in registers.
 // One rank of 8 lanes (lane q of the ranks: far-end offsets, k and, per-spring
 // layout, rest) into the lanes' sums.
-template <bool Shared>
+template <bool Shared, bool Energy>
 LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* f,
                             __m512d& pe) {
   const std::uint32_t* J = c.rankX + q;
@@ -504,16 +511,16 @@ LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t 
   for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
   __m512d w;
   if constexpr (Shared)
-    w = sharedWeights8(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
+    w = sharedWeights8<Energy>(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
   else
-    w = springWeights8(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
+    w = springWeights8<Energy>(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
   for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
 }
 
 // The group's two blocks (lanes at positions xi[h], one register an axis), rank by
 // rank, both blocks in one loop while both have ranks (two independent chains of
 // sqrt and div in flight), then the rest of the longer one; sums in registers.
-template <bool Shared>
+template <bool Shared, bool Energy>
 LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
                                  __m512d (*f)[3], __m512d& pe) {
   __m512d a[3] = {k.zero, k.zero, k.zero}, b[3] = {k.zero, k.zero, k.zero};
@@ -522,11 +529,11 @@ LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::si
   const std::size_t both = std::min(r1 - r0, r2 - r1);
   std::size_t qa = kLanes * r0, qb = kLanes * r1;
   for (std::size_t r = 0; r < both; ++r, qa += kLanes, qb += kLanes) {
-    rank8<Shared>(c, k, qa, xi[0], a, ea);
-    rank8<Shared>(c, k, qb, xi[1], b, eb);
+    rank8<Shared, Energy>(c, k, qa, xi[0], a, ea);
+    rank8<Shared, Energy>(c, k, qb, xi[1], b, eb);
   }
-  for (; qa < kLanes * r1; qa += kLanes) rank8<Shared>(c, k, qa, xi[0], a, ea);
-  for (; qb < kLanes * r2; qb += kLanes) rank8<Shared>(c, k, qb, xi[1], b, eb);
+  for (; qa < kLanes * r1; qa += kLanes) rank8<Shared, Energy>(c, k, qa, xi[0], a, ea);
+  for (; qb < kLanes * r2; qb += kLanes) rank8<Shared, Energy>(c, k, qb, xi[1], b, eb);
   for (int q = 0; q < 3; ++q) {
     f[0][q] = a[q];
     f[1][q] = b[q];
@@ -536,6 +543,7 @@ LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::si
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
 // with the masks mk; f: their spring forces, one register an axis).
+template <bool Energy>
 LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_t t, std::size_t rem, bool extra,
                               const __m512d* X, const __mmask8* mk, const __m512d* f, Acc512& acc) {
   const std::size_t b = 3 * t;
@@ -558,7 +566,7 @@ LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_
   const __m512d mv = _mm512_maskz_loadu_pd(vm, c.mass + t);
   // 1/mass (0 where mass ≤ 0), rounded as the cache's: one stream fewer to read.
   const __m512d imv = _mm512_maskz_div_pd(_mm512_cmp_pd_mask(mv, k.zero, _CMP_GT_OQ), _mm512_set1_pd(1.0), mv);
-  const __m512d kv = _mm512_maskz_loadu_pd(vm, c.stiffness + t);
+  const __m512d kv = Energy ? _mm512_maskz_loadu_pd(vm, c.stiffness + t) : k.zero;
   for (std::size_t r = 0; r < 3; ++r) {
     const std::size_t o = b + 8 * r;
     const __m512d im3 = _mm512_permutexvar_pd(k.spread[r], imv), m3 = _mm512_permutexvar_pd(k.spread[r], mv);
@@ -575,7 +583,7 @@ LD_AVX512 inline void finish8(const BlockStep& c, const Consts512& k, std::size_
     _mm512_mask_storeu_pd(c.x1 + o, mk[r], p);
     const __m512d uu = _mm512_mul_pd(u, u);
     acc.ke = _mm512_fmadd_pd(m3, uu, acc.ke);
-    acc.kv2 = _mm512_fmadd_pd(k3, uu, acc.kv2);
+    if constexpr (Energy) acc.kv2 = _mm512_fmadd_pd(k3, uu, acc.kv2);
     acc.v2 = _mm512_add_pd(acc.v2, uu);
     acc.maxc = _mm512_max_pd(acc.maxc, uu);
     acc.work = _mm512_fmadd_pd(_mm512_fmadd_pd(m3, k.grav[r], E), e, acc.work);
@@ -588,7 +596,7 @@ LD_AVX512 inline __m512i lanes8(const std::uint8_t* p) {
   return _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
 }
 
-template <bool Shared>
+template <bool Shared, bool Energy>
 LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   Consts512 k;
   k.zero = _mm512_setzero_pd();
@@ -641,13 +649,13 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       const __m512i sv = lanes8(c.slotVertex + t + kLanes * h);
       for (int a = 0; a < 3; ++a) xi[h][a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
     }
-    springs8x2<Shared>(c, k, grp, xi, f, pe);
+    springs8x2<Shared, Energy>(c, k, grp, xi, f, pe);
     const bool extra = c.extra[grp] != 0;
     for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
       const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);
       __m512d fv[3];
       for (int a = 0; a < 3; ++a) fv[a] = _mm512_permutex2var_pd(f[0][a], vs, f[1][a]);
-      finish8(c, k, t + kLanes * h, std::min(kLanes, rem - kLanes * h), extra, X + 3 * h, mk + 3 * h, fv, acc);
+      finish8<Energy>(c, k, t + kLanes * h, std::min(kLanes, rem - kLanes * h), extra, X + 3 * h, mk + 3 * h, fv, acc);
     }
   }
   s.ke1 += _mm512_reduce_add_pd(acc.ke);
@@ -730,16 +738,41 @@ double springForces(Kernel kern, const SpringChunk& c) {
   }
 }
 
+namespace {
+// One path's four builds (lane layout × energy sums).
+template <template <bool, bool> class Path>
+void dispatch(const BlockStep& c, FinishSums& s) {
+  if (c.rankRest)
+    c.energy ? Path<false, true>::run(c, s) : Path<false, false>::run(c, s);
+  else
+    c.energy ? Path<true, true>::run(c, s) : Path<true, false>::run(c, s);
+}
+template <bool Shared, bool Energy>
+struct ScalarPath {
+  static void run(const BlockStep& c, FinishSums& s) { blockStepScalar<Shared, Energy>(c, s); }
+};
+#ifdef LD_X86_KERNELS
+template <bool Shared, bool Energy>
+struct Avx2Path {
+  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx2<Shared, Energy>(c, s); }
+};
+template <bool Shared, bool Energy>
+struct Avx512Path {
+  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx512<Shared, Energy>(c, s); }
+};
+#endif
+}  // namespace
+
 void blockStep(Kernel kern, const BlockStep& c, FinishSums& s) {
   switch (kern) {
 #ifdef LD_X86_KERNELS
     case Kernel::Avx512:
-      return c.rankRest ? blockStepAvx512<false>(c, s) : blockStepAvx512<true>(c, s);
+      return dispatch<Avx512Path>(c, s);
     case Kernel::Avx2:
-      return c.rankRest ? blockStepAvx2<false>(c, s) : blockStepAvx2<true>(c, s);
+      return dispatch<Avx2Path>(c, s);
 #endif
     default:
-      return c.rankRest ? blockStepScalar<false>(c, s) : blockStepScalar<true>(c, s);
+      return dispatch<ScalarPath>(c, s);
   }
 }
 
