@@ -1,7 +1,8 @@
 // Step cost of each integrator on slabs of 1k, 10k, 100k and 1M triangles (time per
 // step and ns per spring, CPU time of the stepping thread); the symplectic step on
 // one and two threads, with and without the stability monitor, and on each compiled
-// kernel path (scalar, AVX2, AVX-512: BM_SymplecticKernel); the symplectic step of
+// kernel path (scalar, AVX2, AVX-512: BM_SymplecticKernel), with the per-spring
+// lanes instead of the shared-K ones (BM_SymplecticPerSpringLanes); the symplectic step of
 // the default slab before and after ~1000 triangles cut with the CutEngine (stepped
 // in place on the engine's mesh); the cost of a topology edit to the physics.
 //   physics_bench                                     (all, about a minute)
@@ -93,11 +94,21 @@ void BM_SymplecticKernel(benchmark::State& bs) {
   bs.SetLabel(std::string(detail::kernelName(kern)));
 }
 
+// The symplectic step (one thread, no monitor) with the per-spring lanes (far end, k,
+// rest: 20 bytes) instead of the shared-K ones (12 bytes) the tissue's springs get:
+// the layouts side by side (mass_spring.h, LaneLayout).
+void BM_SymplecticPerSpringLanes(benchmark::State& bs) {
+  detail::forcePerSpringLanes(true);  // the copy in runSteps is a new layout: rebuilt
+  runSteps(bs, Method::SymplecticEuler, false, 1);
+  detail::forcePerSpringLanes(false);
+}
+
 #define LD_SMALL ->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMicrosecond)->MinTime(0.1)
 #define LD_SIZES LD_SMALL->Arg(1000000)
 BENCHMARK(BM_Symplectic) LD_SIZES;
 BENCHMARK(BM_Symplectic2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticMonitored) LD_SIZES;
+BENCHMARK(BM_SymplecticPerSpringLanes) LD_SIZES;
 BENCHMARK(BM_SymplecticMonitored2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticKernel)
     ->ArgsProduct({{10000, 100000}, {0, 1, 2}, {1, 2}})
