@@ -799,8 +799,9 @@ struct SymplecticJob {
 // v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one pass over the vertex blocks
 // (two threads: each takes its blocks; a vertex's result does not depend on which
 // thread does it, so the result is bit-identical to one thread).
-// energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|²) are not
-// taken (spring0 then holds the added springs' energy only).
+// energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|², kinetic
+// energy, work, largest component) are not taken (spring0 then holds the added
+// springs' energy only); v2 and home1 still show a non-finite step.
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
                           int threads, bool energy = true) {
   double* f4 = forceSlots(c.f4);
@@ -844,7 +845,8 @@ void startEnergy(const View& w, const Vec3* x0, const Vec3* v0, SweepSums& s) {
   s.ke0 = kinetic(w, v0);
 }
 
-bool finiteSums(const SweepSums& s) { return std::isfinite(s.ke1 + s.home1 + s.spring0 + s.work); }
+// (A step without the monitor's sums has v2 and home1 only.)
+bool finiteSums(const SweepSums& s) { return std::isfinite(s.ke1 + s.home1 + s.spring0 + s.work + s.v2); }
 
 // Largest |v1|² (a pass; only when the sweep's component bound does not clear).
 double maxSpeed2(const View& w, const Vec3* v1) {

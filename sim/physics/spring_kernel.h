@@ -92,8 +92,9 @@ struct BlockStep {
   std::size_t g0 = 0, g1 = 0;           // groups to step
   double dt = 0, damp = 1, homeK = 0;
   double springK = 0;  // K of the shared-K layout (rankRest null)
-  // The monitor's energy sums (FinishSums::pe, kv2): off, they stay 0 and `stiffness`
-  // is not read (a step without the monitor needs neither).
+  // The monitor's sums: off, only Σ|v1|² and the home sum are taken (enough to see a
+  // non-finite step); pe, kv2, ke1, work and maxComp2 stay 0 and `stiffness` is not
+  // read (a step without the monitor needs none of them).
   bool energy = true;
   double g[3] = {0, 0, 0};
 };
