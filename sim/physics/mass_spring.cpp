@@ -737,7 +737,7 @@ struct SymplecticArgs {
   double* f4;
   double dt;
   detail::Kernel kernel;
-  bool energy;  // the monitor's sums: spring energy at x0, Σ K_i|v1_i|²
+  bool energy;  // the monitor's sums (see symplecticEuler)
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
