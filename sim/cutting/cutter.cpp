@@ -294,14 +294,19 @@ struct CutEngine::Impl {
     const Vec3 n = (b - a).cross(c - a);
     const double n2 = n.squaredNorm();
     if (!(n2 > 0.0)) return false;
+    // The barycentric tests first: most faces asked about (the fan around a walk's
+    // tip) fail them, and then the distance test (square roots) is not needed. The
+    // same tests as always, in another order: the same answer.
+    const double l0 = n.dot((b - P).cross(c - P)) / n2;
+    if (!(l0 >= -baryTol)) return false;
+    const double l1 = n.dot((c - P).cross(a - P)) / n2;
+    if (!(l1 >= -baryTol)) return false;
+    const double l2 = 1.0 - l0 - l1;
+    if (!(l2 >= -baryTol)) return false;
     const double nl = std::sqrt(n2);
     const double dist = std::abs(n.dot(P - a)) / nl;
     const double sc = std::max({scaleOf(a), scaleOf(b), scaleOf(c), scaleOf(P)});
-    if (dist > 1e-7 * sc + 1e-3 * std::sqrt(nl)) return false;
-    const double l0 = n.dot((b - P).cross(c - P)) / n2;
-    const double l1 = n.dot((c - P).cross(a - P)) / n2;
-    const double l2 = 1.0 - l0 - l1;
-    return l0 >= -baryTol && l1 >= -baryTol && l2 >= -baryTol;
+    return !(dist > 1e-7 * sc + 1e-3 * std::sqrt(nl));
   }
 
   static Vec3 barycentric(const SurfaceMesh& m, Face f, const Vec3& P) {
