@@ -200,6 +200,25 @@ Face SurfaceMesh::newFace() {
   return Face(facesSize() - 1);
 }
 
+// A new edge (a, b) with the properties of `from` (one pass over the property arrays).
+Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
+  eprops_.pushBackCopy(from.idx());
+  Edge e(edgesSize() - 1);
+  everts_[e] = {a, b};
+  efaces_[e] = {Face(), Face()};
+  addEdgeToVertex(a, e);
+  addEdgeToVertex(b, e);
+  journalE_.push_back(e);
+  return e;
+}
+
+// A new face with the properties of `from` (its corners and sides are set by attachFace).
+Face SurfaceMesh::newFaceCopy(Face from) {
+  fprops_.pushBackCopy(from.idx());
+  journalF_.push_back(Face(facesSize() - 1));
+  return Face(facesSize() - 1);
+}
+
 bool SurfaceMesh::runsForward(Face f, Edge e) const {
   const auto& fv = fverts_[f];
   const auto& ev = everts_[e];
@@ -326,10 +345,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   everts_[e] = {a, m};
   addEdgeToVertex(m, e);
   journalE_.push_back(e);
-  const Edge e2 = newEdge(m, b);
-  eprops_.copyElement(e.idx(), e2.idx());
-  everts_[e2] = {m, b};
-  efaces_[e2] = {Face(), Face()};
+  const Edge e2 = newEdgeCopy(e, m, b);
   for (std::size_t k = 0; k < 2; ++k) {
     if (!fs[k].isValid()) continue;
     const auto [x, y, c] = tri[k];
@@ -344,8 +360,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
       return Edge();
     };
     const Edge cx = oldSide(c, x), yc = oldSide(y, c);
-    const Face g = newFace();
-    fprops_.copyElement(fs[k].idx(), g.idx());
+    const Face g = newFaceCopy(fs[k]);
     attachFace(fs[k], x, m, c, {x == a ? e : e2, Edge(), cx});
     attachFace(g, m, y, c, {y == b ? e2 : e, yc, fedges_[fs[k]][1]});
     for (Edge oe : oldEdges) deleteEmptyEdge(oe);
@@ -360,10 +375,8 @@ Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
   const Vertex m = addVertex(p);
   const std::array<Edge, 3> old = fedges_[f];  // (a,b), (b,c), (c,a)
   detachFace(f);
-  const Face g1 = newFace();
-  const Face g2 = newFace();
-  fprops_.copyElement(f.idx(), g1.idx());
-  fprops_.copyElement(f.idx(), g2.idx());
+  const Face g1 = newFaceCopy(f);
+  const Face g2 = newFaceCopy(f);
   // The sides are f's old edges and the spokes are made in order: nothing to search
   // except the spokes' first lookups in m's short list.
   attachFace(f, a, b, m, {old[0], Edge(), Edge()});
@@ -409,9 +422,8 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   if (2 * fan.size() >= sides) return Vertex();
   auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
 
-  vprops_.pushBack();
+  vprops_.pushBackCopy(v.idx());
   const Vertex nv(verticesSize() - 1);
-  vprops_.copyElement(v.idx(), nv.idx());
   vedges_[nv].clear();
   journalV_.push_back(v);
   journalV_.push_back(nv);
@@ -439,9 +451,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     const Face moved = in0 ? f0 : f1;
     efaces_[e] = {in0 ? f1 : f0, Face()};
     journalE_.push_back(e);
-    const Edge c = newEdge(ends[0], ends[1]);  // journals c
-    eprops_.copyElement(e.idx(), c.idx());
-    everts_[c] = ends;
+    const Edge c = newEdgeCopy(e, ends[0], ends[1]);  // journals c
     efaces_[c] = {moved, Face()};
     swaps.push_back({moved, e, c});
   }

@@ -346,6 +346,8 @@ class SurfaceMesh {
   void check(Face f, const char* where) const;
   Edge newEdge(Vertex a, Vertex b);
   Face newFace();
+  Edge newEdgeCopy(Edge from, Vertex a, Vertex b);
+  Face newFaceCopy(Face from);
   void addEdgeToVertex(Vertex v, Edge e);
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
   // empty) and give it new vertices, finding or creating its edges (`known`: the
