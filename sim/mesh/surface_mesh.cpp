@@ -250,13 +250,13 @@ void SurfaceMesh::detachFace(Face f) {
   }
 }
 
-void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known) {
+void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known, bool missingAreNew) {
   fverts_[f] = {a, b, c};
   journalF_.push_back(f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
-    Edge e = known[i].isValid() ? known[i] : findEdge(x, y);
+    Edge e = known[i].isValid() || missingAreNew ? known[i] : findEdge(x, y);
     if (!e.isValid()) e = newEdge(x, y);
     auto& ef = efaces_[e];
     if (!ef[0].isValid())
@@ -299,7 +299,8 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
       if (ov[k] == x && ov[(k + 1) % 3] == y) return Face();
   }
   Face f = newFace();
-  attachFace(f, a, b, c, found);  // the pairs are distinct: new edges do not change `found`
+  // The pairs are distinct: new edges do not change `found`, and one not found is new.
+  attachFace(f, a, b, c, found, true);
   ++topologyVersion_;
   return f;
 }

@@ -353,7 +353,8 @@ class SurfaceMesh {
   // empty) and give it new vertices, finding or creating its edges (`known`: the
   // edges already found for (a,b), (b,c), (c,a), invalid where not looked up).
   void detachFace(Face f);
-  void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {});
+  // (`missingAreNew`: an edge not in `known` does not exist yet; no search.)
+  void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {}, bool missingAreNew = false);
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
   [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
