@@ -208,7 +208,7 @@ struct CutEngine::Impl {
   std::vector<collision::TriangleBvh> bvhs;
   std::vector<char> moved;                            // every vertex may have moved
   std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
-  long motionCount = 0;  // object()/verticesMoved calls: tracks re-anchor to the tissue
+  long motionCount = 0;                               // object()/verticesMoved calls: tracks re-anchor to the tissue
   std::vector<collision::SurfaceHit> scratchHits;
   std::vector<Face> scratchFaces;
   int nextId = 0;
@@ -237,6 +237,14 @@ struct CutEngine::Impl {
       for (auto& t : h.tracks)
         if (t.id == id && t.alive) return &t;
     return nullptr;
+  }
+
+  // Room for the cuts to come (a quarter more of every element): without it the first
+  // edit that outgrows a copied, loaded or compacted mesh (arrays exactly full) copies
+  // every element array at once (on a 100k-triangle tissue, milliseconds in one sample).
+  static void roomToCut(SurfaceMesh& m) {
+    m.reserve(m.verticesSize() + m.verticesSize() / 4 + 256, m.edgesSize() + m.edgesSize() / 4 + 768,
+              m.facesSize() + m.facesSize() / 4 + 512);
   }
 
   // ---- physics hooks ---------------------------------------------------------------
@@ -286,14 +294,19 @@ struct CutEngine::Impl {
     const Vec3 n = (b - a).cross(c - a);
     const double n2 = n.squaredNorm();
     if (!(n2 > 0.0)) return false;
+    // The barycentric tests first: most faces asked about (the fan around a walk's
+    // tip) fail them, and then the distance test (square roots) is not needed. The
+    // same tests as always, in another order: the same answer.
+    const double l0 = n.dot((b - P).cross(c - P)) / n2;
+    if (!(l0 >= -baryTol)) return false;
+    const double l1 = n.dot((c - P).cross(a - P)) / n2;
+    if (!(l1 >= -baryTol)) return false;
+    const double l2 = 1.0 - l0 - l1;
+    if (!(l2 >= -baryTol)) return false;
     const double nl = std::sqrt(n2);
     const double dist = std::abs(n.dot(P - a)) / nl;
     const double sc = std::max({scaleOf(a), scaleOf(b), scaleOf(c), scaleOf(P)});
-    if (dist > 1e-7 * sc + 1e-3 * std::sqrt(nl)) return false;
-    const double l0 = n.dot((b - P).cross(c - P)) / n2;
-    const double l1 = n.dot((c - P).cross(a - P)) / n2;
-    const double l2 = 1.0 - l0 - l1;
-    return l0 >= -baryTol && l1 >= -baryTol && l2 >= -baryTol;
+    return !(dist > 1e-7 * sc + 1e-3 * std::sqrt(nl));
   }
 
   static Vec3 barycentric(const SurfaceMesh& m, Face f, const Vec3& P) {
@@ -2260,6 +2273,7 @@ struct CutEngine::Impl {
     const double dead = static_cast<double>(m.facesSize() - m.nFaces());
     if (dead > kCompactDeadShare * static_cast<double>(m.nFaces())) {
       const mesh::Compaction cm = m.garbageCollection();
+      roomToCut(m);
       bvhs[k].remap(m, cm);
     }
   }
@@ -2383,10 +2397,53 @@ struct CutEngine::Impl {
       // edge are on the cut, hence listed too): their neighbours need no check.
       if (!singleFan(m, d.v)) unpinch(d.obj, d.v);
     }
+    ThinCache* cache = nullptr;
     for (const Dirty& d : dirtyWork) {
       if (indexOf(d.obj) < 0 || !meshOf(d.obj).isValid(d.v)) continue;
-      improveAround(d.obj, d.v);
+      if (!cache || cache->obj != d.obj) cache = &thinCacheFor(d.obj);  // sorted by object
+      improveAround(d.obj, d.v, *cache);
     }
+  }
+
+  // Faces the flips' thinness test has passed, per object: a face is tested again only
+  // once an edit re-set it (the journal lists it) or the caller moved vertices
+  // (motionCount); the cutter itself never moves a vertex, so a face that passed keeps
+  // its shape until then. Faces found thin are not remembered (a later flip may fix
+  // them). The result is the one of testing every face around every edited vertex.
+  struct ThinCache {
+    int obj = -1;
+    std::uint64_t layout = 0;
+    long motion = -1;
+    std::size_t journalF = 0;
+    std::uint32_t gen = 0;
+    std::vector<std::uint32_t> okGen;  // per face index: gen when it passed
+    [[nodiscard]] bool passed(Face f) const { return f.idx() < okGen.size() && okGen[f.idx()] == gen; }
+    void pass(Face f) {
+      if (f.idx() >= okGen.size()) okGen.resize(f.idx() + 1024, 0);
+      okGen[f.idx()] = gen;
+    }
+  };
+  std::vector<ThinCache> thinCaches;
+  ThinCache& thinCacheFor(int obj) {
+    const SurfaceMesh& m = meshOf(obj);
+    std::erase_if(thinCaches, [&](const ThinCache& c) { return indexOf(c.obj) < 0; });
+    auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
+    ThinCache& c = it != thinCaches.end() ? *it : thinCaches.emplace_back();
+    const auto journal = m.editedFaces();
+    if (c.obj != obj || c.layout != m.layoutVersion() || c.motion != motionCount || c.journalF > journal.size()) {
+      c.obj = obj;
+      c.layout = m.layoutVersion();
+      c.motion = motionCount;
+      if (++c.gen == 0) {  // wrapped: forget every mark
+        std::fill(c.okGen.begin(), c.okGen.end(), 0u);
+        c.gen = 1;
+      }
+    } else {
+      for (Face f : journal.subspan(c.journalF))
+        if (f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+    }
+    c.journalF = journal.size();
+    return c;
   }
 
   // ---- sliver removal by local flips ------------------------------------------------------
@@ -2457,7 +2514,9 @@ struct CutEngine::Impl {
   }
 
   // Thin triangles around v: flip their longest edge where that helps.
-  void improveAround(int obj, Vertex v) {
+  // Each face is tested once per call of fixPinches at most (and not again while it
+  // keeps its shape: ThinCache).
+  void improveAround(int obj, Vertex v, ThinCache& ok) {
     SurfaceMesh& m = meshOf(obj);
     const double floor = 0.5 * p.snapDistance;
     for (int round = 0; round < 4; ++round) {
@@ -2465,7 +2524,11 @@ struct CutEngine::Impl {
       for (Edge ev : m.edges(v)) {
         for (int s = 0; s < 2 && !flipped; ++s) {
           const Face f = m.face(ev, s);
-          if (!f.isValid() || !thinnerThan(m, f, floor)) continue;
+          if (!f.isValid() || ok.passed(f)) continue;
+          if (!thinnerThan(m, f, floor)) {
+            ok.pass(f);
+            continue;
+          }
           Edge longest;
           double L = -1.0;
           for (Edge g : m.edges(f))
@@ -2792,6 +2855,7 @@ int CutEngine::addObject(mesh::SurfaceMesh m) {
   o.mesh = std::move(m);
   o.mesh.faceProperty<int>(kFaceKindProp, kSurface);
   o.mesh.vertexProperty<std::uint8_t>(kApexProp, 0);
+  impl_->roomToCut(o.mesh);
   impl_->hasTissue.push_back(physics::hasTissueProperties(o.mesh));
   impl_->objects.push_back(std::move(o));
   impl_->bvhs.emplace_back(impl_->objects.back().mesh);

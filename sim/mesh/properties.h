@@ -6,6 +6,7 @@
 #include <cassert>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <typeinfo>
 #include <utility>
 #include <vector>
@@ -42,6 +43,8 @@ class BasePropertyArray {
   virtual void resize(std::size_t n) = 0;
   virtual void reserve(std::size_t n) = 0;
   virtual void pushBack() = 0;
+  // Appends a copy of element `from` (pushBack then copyElement, in one pass).
+  virtual void pushBackCopy(std::size_t from) = 0;
   virtual void copyElement(std::size_t from, std::size_t to) = 0;
   // Keeps element old[i] at position i for i < keep.size().
   virtual void compact(const std::vector<std::size_t>& keep) = 0;
@@ -62,6 +65,13 @@ class PropertyArray final : public BasePropertyArray {
   void resize(std::size_t n) override { data_.resize(n, default_); }
   void reserve(std::size_t n) override { data_.reserve(n); }
   void pushBack() override { data_.push_back(default_); }
+  void pushBackCopy(std::size_t from) override {
+    if constexpr (std::is_same_v<T, bool>) {
+      data_.push_back(static_cast<bool>(data_[from]));
+    } else {
+      data_.push_back(data_[from]);  // std::vector copes with an element of its own
+    }
+  }
   void copyElement(std::size_t from, std::size_t to) override { data_[to] = data_[from]; }
   void compact(const std::vector<std::size_t>& keep) override {
     std::vector<T> out;
@@ -185,6 +195,12 @@ class PropertyContainer {
   }
   void copyElement(std::size_t from, std::size_t to) {
     for (auto& a : arrays_) a->copyElement(from, to);
+  }
+  // A new last element, a copy of `from`.
+  void pushBackCopy(std::size_t from) {
+    if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
+    for (auto& a : arrays_) a->pushBackCopy(from);
+    ++size_;
   }
   void compact(const std::vector<std::size_t>& keep) {
     for (auto& a : arrays_) a->compact(keep);

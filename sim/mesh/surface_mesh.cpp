@@ -200,6 +200,25 @@ Face SurfaceMesh::newFace() {
   return Face(facesSize() - 1);
 }
 
+// A new edge (a, b) with the properties of `from` (one pass over the property arrays).
+Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
+  eprops_.pushBackCopy(from.idx());
+  Edge e(edgesSize() - 1);
+  everts_[e] = {a, b};
+  efaces_[e] = {Face(), Face()};
+  addEdgeToVertex(a, e);
+  addEdgeToVertex(b, e);
+  journalE_.push_back(e);
+  return e;
+}
+
+// A new face with the properties of `from` (its corners and sides are set by attachFace).
+Face SurfaceMesh::newFaceCopy(Face from) {
+  fprops_.pushBackCopy(from.idx());
+  journalF_.push_back(Face(facesSize() - 1));
+  return Face(facesSize() - 1);
+}
+
 bool SurfaceMesh::runsForward(Face f, Edge e) const {
   const auto& fv = fverts_[f];
   const auto& ev = everts_[e];
@@ -231,13 +250,13 @@ void SurfaceMesh::detachFace(Face f) {
   }
 }
 
-void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known) {
+void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known, bool missingAreNew) {
   fverts_[f] = {a, b, c};
   journalF_.push_back(f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
-    Edge e = known[i].isValid() ? known[i] : findEdge(x, y);
+    Edge e = known[i].isValid() || missingAreNew ? known[i] : findEdge(x, y);
     if (!e.isValid()) e = newEdge(x, y);
     auto& ef = efaces_[e];
     if (!ef[0].isValid())
@@ -280,7 +299,8 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
       if (ov[k] == x && ov[(k + 1) % 3] == y) return Face();
   }
   Face f = newFace();
-  attachFace(f, a, b, c, found);  // the pairs are distinct: new edges do not change `found`
+  // The pairs are distinct: new edges do not change `found`, and one not found is new.
+  attachFace(f, a, b, c, found, true);
   ++topologyVersion_;
   return f;
 }
@@ -326,10 +346,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   everts_[e] = {a, m};
   addEdgeToVertex(m, e);
   journalE_.push_back(e);
-  const Edge e2 = newEdge(m, b);
-  eprops_.copyElement(e.idx(), e2.idx());
-  everts_[e2] = {m, b};
-  efaces_[e2] = {Face(), Face()};
+  const Edge e2 = newEdgeCopy(e, m, b);
   for (std::size_t k = 0; k < 2; ++k) {
     if (!fs[k].isValid()) continue;
     const auto [x, y, c] = tri[k];
@@ -344,8 +361,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
       return Edge();
     };
     const Edge cx = oldSide(c, x), yc = oldSide(y, c);
-    const Face g = newFace();
-    fprops_.copyElement(fs[k].idx(), g.idx());
+    const Face g = newFaceCopy(fs[k]);
     attachFace(fs[k], x, m, c, {x == a ? e : e2, Edge(), cx});
     attachFace(g, m, y, c, {y == b ? e2 : e, yc, fedges_[fs[k]][1]});
     for (Edge oe : oldEdges) deleteEmptyEdge(oe);
@@ -360,10 +376,8 @@ Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
   const Vertex m = addVertex(p);
   const std::array<Edge, 3> old = fedges_[f];  // (a,b), (b,c), (c,a)
   detachFace(f);
-  const Face g1 = newFace();
-  const Face g2 = newFace();
-  fprops_.copyElement(f.idx(), g1.idx());
-  fprops_.copyElement(f.idx(), g2.idx());
+  const Face g1 = newFaceCopy(f);
+  const Face g2 = newFaceCopy(f);
   // The sides are f's old edges and the spokes are made in order: nothing to search
   // except the spokes' first lookups in m's short list.
   attachFace(f, a, b, m, {old[0], Edge(), Edge()});
@@ -387,82 +401,70 @@ void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
       if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
 }
 
+// In one pass over v's edges (no face list, no search, nothing deleted): an edge whose
+// faces are all in the fan moves to the new vertex (same handle and properties, one end
+// re-set); an edge with a fan face on one side and another face on the other keeps the
+// other face and gets a copy at the new vertex for the fan face. Numbering (the edit
+// fingerprint test freezes it): the new vertex is the next vertex index; the copies are
+// the next edge indices in the order of v's edge list; v keeps its other edges in their
+// order, and the new vertex lists the moved edges and the copies in that order too; the
+// far ends list a copy after their other edges.
 Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   check(v, "splitVertex");
   if (fan.empty()) return Vertex();
-  std::vector<Face>& around = scratch_.around;
-  faces(v, around);
   for (std::size_t i = 0; i < fan.size(); ++i) {
-    if (!isValid(fan[i]) || std::find(around.begin(), around.end(), fan[i]) == around.end()) return Vertex();
+    if (!isValid(fan[i]) || localIndex(fan[i], v) < 0) return Vertex();
     for (std::size_t j = 0; j < i; ++j)
       if (fan[i] == fan[j]) return Vertex();
   }
-  if (fan.size() >= around.size()) return Vertex();
+  // Each face around v has two sides at v.
+  std::size_t sides = 0;
+  for (Edge e : vedges_[v]) sides += (efaces_[e][0].isValid() ? 1u : 0u) + (efaces_[e][1].isValid() ? 1u : 0u);
+  if (2 * fan.size() >= sides) return Vertex();
+  auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
 
-  vprops_.pushBack();
+  vprops_.pushBackCopy(v.idx());
   const Vertex nv(verticesSize() - 1);
-  vprops_.copyElement(v.idx(), nv.idx());
   vedges_[nv].clear();
   journalV_.push_back(v);
   journalV_.push_back(nv);
 
-  std::vector<Edge>& touched = scratch_.touched;
-  std::vector<std::array<Vertex, 3>>& tris = scratch_.tris;
-  touched.clear();
-  tris.clear();
-  for (Face f : fan) {
-    auto fv = fverts_[f];
-    for (auto& x : fv)
+  // (fan face, edge it leaves, the copy it takes instead)
+  auto& swaps = scratch_.swaps;
+  swaps.clear();
+  std::vector<Edge>& list = vedges_[v];
+  std::size_t keep = 0;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Edge e = list[i];
+    const Face f0 = efaces_[e][0], f1 = efaces_[e][1];
+    const bool in0 = inFan(f0), in1 = inFan(f1);
+    auto ends = everts_[e];
+    for (auto& x : ends)
       if (x == v) x = nv;
-    tris.push_back(fv);
-    for (Edge e : fedges_[f]) touched.push_back(e);
-    detachFace(f);
-  }
-  for (std::size_t i = 0; i < fan.size(); ++i) {
-    // The side opposite v is still the face's own edge: no search through its ends'
-    // lists (the same edge findEdge would return).
-    std::array<Edge, 3> known{};
-    for (std::size_t k = 0; k < 3; ++k)
-      if (tris[i][k] != nv && tris[i][(k + 1) % 3] != nv) known[k] = touched[3 * i + k];
-    attachFace(fan[i], tris[i][0], tris[i][1], tris[i][2], known);
-  }
-  // An edge that lost all its faces to the new vertex keeps its properties on its copy.
-  for (Edge e : touched) {
-    if (efaces_[e][0].isValid() || edeleted_[e]) continue;
-    const Vertex other = everts_[e][0] == v ? everts_[e][1] : everts_[e][0];
-    const Edge ne = findEdge(nv, other);
-    if (ne.isValid()) {
-      const auto keepV = everts_[ne];
-      const auto keepF = efaces_[ne];
-      eprops_.copyElement(e.idx(), ne.idx());
-      everts_[ne] = keepV;
-      efaces_[ne] = keepF;
-      journalE_.push_back(ne);
-    }
-    deleteEmptyEdge(e);
-  }
-  // Duplicated edges (shared with a non-fan face) inherit the original's properties.
-  // v's neighbours are listed once, so each lookup reads no edge record.
-  auto& ring = scratch_.ring;
-  ring.clear();
-  for (Edge e : vedges_[v]) ring.emplace_back(otherVertex(e, v), e);
-  for (Edge e : vedges_[nv]) {
-    const Vertex other = otherVertex(e, nv);
-    Edge orig;
-    for (const auto& [w, we] : ring)
-      if (w == other) {
-        orig = we;
-        break;
-      }
-    if (orig.isValid() && orig != e) {
-      const auto keepV = everts_[e];
-      const auto keepF = efaces_[e];
-      eprops_.copyElement(orig.idx(), e.idx());
-      everts_[e] = keepV;
-      efaces_[e] = keepF;
+    if (in0 && (in1 || !f1.isValid())) {
+      everts_[e] = ends;
+      addEdgeToVertex(nv, e);
       journalE_.push_back(e);
+      continue;
     }
+    list[keep++] = e;
+    if (!in0 && !in1) continue;
+    const Face moved = in0 ? f0 : f1;
+    efaces_[e] = {in0 ? f1 : f0, Face()};
+    journalE_.push_back(e);
+    const Edge c = newEdgeCopy(e, ends[0], ends[1]);  // journals c
+    efaces_[c] = {moved, Face()};
+    swaps.push_back({moved, e, c});
   }
+  list.resize(keep);
+  for (Face f : fan) {
+    for (auto& x : fverts_[f])
+      if (x == v) x = nv;
+    journalF_.push_back(f);
+  }
+  for (const auto& s : swaps)
+    for (auto& fe : fedges_[s.face])
+      if (fe == s.from) fe = s.to;
   ++topologyVersion_;
   return nv;
 }

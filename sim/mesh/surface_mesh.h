@@ -207,8 +207,13 @@ class SurfaceMesh {
   // faces inherit its properties). Pre: f live. Returns the new vertex.
   Vertex splitFace(Face f, const Point& p);
 
-  // Moves the faces in `fan` from v onto a new vertex at v's position with v's
-  // properties. Edges shared by a fan face and a non-fan face are duplicated.
+  // Moves the faces in `fan` (any subset of v's faces, connected around v or not) from
+  // v onto a new vertex at v's position with v's properties. An edge at v whose faces
+  // are all in the fan moves with them (same handle and properties, its end re-set to
+  // the new vertex); an edge shared by a fan face and a non-fan face is duplicated (the
+  // copy, for the fan face, inherits its properties). Cost linear in v's valence (times
+  // the fan's size). Numbering: the new vertex is the next vertex index, the copies the
+  // next edge indices in the order of v's edge list (see surface_mesh.cpp).
   // Pre: v live; fan non-empty, faces live, distinct and incident to v, and not all
   // faces around v. Returns the new vertex, or invalid (mesh unchanged) otherwise.
   Vertex splitVertex(Vertex v, std::span<const Face> fan);
@@ -341,12 +346,15 @@ class SurfaceMesh {
   void check(Face f, const char* where) const;
   Edge newEdge(Vertex a, Vertex b);
   Face newFace();
+  Edge newEdgeCopy(Edge from, Vertex a, Vertex b);
+  Face newFaceCopy(Face from);
   void addEdgeToVertex(Vertex v, Edge e);
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
   // empty) and give it new vertices, finding or creating its edges (`known`: the
   // edges already found for (a,b), (b,c), (c,a), invalid where not looked up).
   void detachFace(Face f);
-  void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {});
+  // (`missingAreNew`: an edge not in `known` does not exist yet; no search.)
+  void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {}, bool missingAreNew = false);
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
   [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1
@@ -376,11 +384,13 @@ class SurfaceMesh {
   // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
   // edits use them), so that edits in steady state do not allocate. splitVertex and
   // separateEdge have their own, since separateEdge passes its fan to splitVertex.
+  struct EdgeSwap {
+    Face face;
+    Edge from, to;
+  };
   struct Scratch {
     std::vector<Face> around;
-    std::vector<Edge> touched;
-    std::vector<std::array<Vertex, 3>> tris;
-    std::vector<std::pair<Vertex, Edge>> ring;
+    std::vector<EdgeSwap> swaps;
     std::vector<Face> sepAround;
     std::vector<int> sepGroup;
     std::vector<Face> sepFan;

@@ -1,9 +1,10 @@
 #pragma once
 // A fingerprint of a long, seeded sequence of mixed edits on grids with properties:
 // the handles the edits return and create, the final connectivity, properties and
-// journal. Edits must keep numbering new elements the same way (caches, the cutter's
-// replayable seeds and recorded sessions depend on it); a change here is a change of
-// behaviour, not an optimization.
+// journal. Edits must number new elements deterministically and in their documented
+// order (caches, the cutter's replayable seeds and recorded sessions depend on it): a
+// change here is a change of behaviour, to be made on purpose and documented (the
+// one-pass splitVertex of 2026-12-02 was one), never as a side effect.
 #include <cstdint>
 #include <random>
 #include <string>
