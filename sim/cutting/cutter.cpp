@@ -1235,8 +1235,9 @@ struct CutEngine::Impl {
       if (q > bestQ) bestQ = q, bestT = t;
     if (bestQ <= 0.0) return -1.0;
     best = po + bestT * (depthN - po);
-    // Never onto another vertex (e.g. a cut retracing its own groove has walls there).
-    if (!clearOfVertices(m, o, best, thr)) return -1.0;
+    // Never onto another vertex: at the blade's depth under N, where another cut's new
+    // bottom vertex would go too (a cut retracing its own groove: both lips are cut).
+    if ((best - depthN).squaredNorm() < thr2 && !clearOfVertices(m, o, best, thr)) return -1.0;
     return std::sqrt(bestQ);
   }
   static constexpr int kSlideSearchSteps = 6;
@@ -1263,7 +1264,7 @@ struct CutEngine::Impl {
 
   // Moves groove-bottom vertex o to q (its faces are all groove walls; n is the path
   // vertex above): rest shape, springs and masses of the tissue follow, and the tree
-  // refits o's boxes.
+  // refits o's boxes at its next sync (before any query).
   void slideBottom(int obj, Vertex o, const Vec3& q, Vertex n, const Vec3& depthN) {
     SurfaceMesh& m = meshOf(obj);
     if (dbg())
@@ -1283,10 +1284,7 @@ struct CutEngine::Impl {
       for (Edge e : m.edges(o)) physics::initEdge(m, e, p.tissue);
       physics::redistributeMass(m, around, p.tissue);
     }
-    const std::size_t i = static_cast<std::size_t>(indexOf(obj));
-    syncBvh(i);
-    const Vertex moved1[1] = {o};
-    bvhs[i].refitVertices(m, std::span<const Vertex>(moved1, 1));
+    slidPending.emplace_back(obj, o);  // its boxes are refitted at the next sync
   }
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
@@ -2474,10 +2472,20 @@ struct CutEngine::Impl {
         ++stats.regionRefits;
         stats.verticesRefitted += static_cast<long>(movedList[i].size());
       }
+      if (!moved[i] && !slidPending.empty()) {
+        // Groove-bottom vertices the cutter moved (slideBottom) since the last sync.
+        slidScratch.clear();
+        for (const auto& [id, x] : slidPending)
+          if (id == objects[i].id && m.isValid(x)) slidScratch.push_back(x);
+        if (!slidScratch.empty()) b.refitVertices(m, std::span<const Vertex>(slidScratch));
+      }
     }
+    std::erase_if(slidPending, [&](const auto& e) { return e.first == objects[i].id; });
     moved[i] = 0;
     movedList[i].clear();
   }
+  std::vector<std::pair<int, Vertex>> slidPending;  // (object id, vertex) moved by slideBottom
+  std::vector<Vertex> slidScratch;
 
   // Physics moved these vertices (told by verticesMoved): kept until the next query.
   void noteMoved(std::size_t i, std::span<const std::uint32_t> list) {
