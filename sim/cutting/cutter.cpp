@@ -800,6 +800,8 @@ struct CutEngine::Impl {
     //         of the opening, N ... chain.back() and its copy, triangulated on its own.
     enum class Fill { Fan, Apex, Halves, Defer } fill = Fill::Fan;
     Vec3 apexPos = Vec3::Zero();
+    bool slide = false;  // a groove's bottom vertex o moves to slidePos (no new vertex)
+    Vec3 slidePos = Vec3::Zero();
     if (walls) {
       const Vec3 pv = m.position(v), pN = m.position(N);
       // The opening will be the loop N, v, chain..., copies of chain and v back to N.
@@ -841,27 +843,57 @@ struct CutEngine::Impl {
         fill = fanOk ? Fill::Fan : (apexOk && chain.size() == 1 ? Fill::Apex : Fill::Defer);
         if (fill == Fill::Defer && chain.size() > 1 && halvesOk(m, N, v, chain, thr)) fill = Fill::Halves;
       } else {
-        // Mid-stroke the bottom vertex is reused over about three path steps (fewer
-        // triangles per cut triangle on coarse meshes); the last step of a cut puts the
-        // bottom back at the blade's depth within grooveSpacing.
-        const double spacing = lastStep ? p.grooveSpacing : std::max(p.grooveSpacing, 4.0 * (pN - pv).norm());
-        // ... while the fan's triangle keeps a fair smallest angle (a low groove bottom
-        // far back makes needles: a shallow groove gets bottom vertices more often).
+        // Groove: the bottom vertex o is reused while the new wall triangle (v, N, o)
+        // keeps a smallest angle of wallMinAngleDeg; else o slides on along the groove
+        // toward the blade's depth when the new triangle and every one o carries keep it
+        // (the bottom vertex stays under the middle of the path it fans to instead of
+        // under its start, so one vertex serves a path about twice as long); else a new
+        // bottom vertex goes under N. Where nothing keeps it (a short step under a deep
+        // groove) the best of the three, a new vertex only when it beats both. The bottom
+        // stays within reach of the blade's depth (grooveSpacing at the last step of a
+        // cut) and on its line.
         const Vec3 po = m.position(o);
-        auto fanAngleOk = [&] {
-          const double fanAngle = minAngle(pv, pN, po);
-          return fanAngle >= kMinWallAngle ||
-                 fanAngle >= std::min(minAngle(pv, pN, apexPos), minAngle(pv, po, apexPos));
+        const double sinFloor = std::sin(p.wallMinAngleDeg * M_PI / 180.0);
+        const bool isApex = apexProp[o] != 0;
+        const double depth = (depthN - pN).norm();
+        // The bottom's line here: through the blade's depth points at v and N (not the
+        // path vertices, which may be snapped off the sweep).
+        Vec3 along = depthN - tr.tipDepth;
+        if (!(along.norm() > 1e-3 * (pN - pv).norm())) along = pN - pv;
+        along = along.norm() > 0.0 ? Vec3(along.normalized()) : Vec3::Zero();
+        const double reach =
+            lastStep ? p.grooveSpacing : std::max({p.grooveSpacing, 4.0 * (pN - pv).norm(), kBottomReach * depth});
+        const double offTol = std::max(p.snapDistance, kBottomDepthTol * depth);
+        // Within reach of the blade's depth under N and on the bottom's line (a groove
+        // getting deeper, or curving, gets bottom vertices more often).
+        auto onLine = [&](const Vec3& q) {
+          const Vec3 d = q - depthN;
+          return (d - d.dot(along) * along).norm() <= offTol;
         };
-        const bool reuse = apexProp[o] != 0 && (depthN - po).norm() < spacing && fanAngleOk();
-        if (reuse && fanOk)
+        auto inReach = [&](const Vec3& q) { return (q - depthN).norm() < reach && onLine(q); };
+        const double reuseSin = isApex && fanOk && inReach(po) ? minAngleSin(pv, pN, po) : -1.0;
+        double slideSin = -1.0;
+        if (isApex && reuseSin < sinFloor && !m.findEdge(N, o).isValid())
+          slideSin = bestSlide(m, o, v, N, depthN, thr, inReach, onLine, slidePos);
+        if (reuseSin >= sinFloor) {
           fill = Fill::Fan;
-        else if (apexOk)
-          fill = Fill::Apex;
-        else if (fanOk)
+        } else if (slideSin >= sinFloor) {
           fill = Fill::Fan;
-        else
-          fill = Fill::Defer;
+          slide = true;
+        } else {
+          // Neither keeps the floor (a short step under a deep groove): the best of the
+          // three; a new vertex only when it beats both.
+          const double apexSin = apexOk ? std::min(minAngleSin(pv, pN, apexPos), minAngleSin(pv, po, apexPos)) : -1.0;
+          if (apexOk && apexSin > std::max(reuseSin, slideSin))
+            fill = Fill::Apex;
+          else if (slideSin > 0.0 && slideSin >= reuseSin) {
+            fill = Fill::Fan;
+            slide = true;
+          } else if (fanOk)
+            fill = Fill::Fan;
+          else
+            fill = Fill::Defer;
+        }
       }
       if (dbg() && paired)
         std::cerr << "pair step track " << tr.id << " chain " << chain.size() << " qFan " << qFan << " qApex " << qApex
@@ -911,6 +943,7 @@ struct CutEngine::Impl {
       if (!apex.isValid()) {
         ++stats.fillFailures;
       } else if (apex == o) {
+        if (slide) slideBottom(tr.object, o, slidePos, N, depthN);
         next[0] = o;
         if (P && P->tip == o) P->chain = {N};
       } else {
@@ -945,7 +978,9 @@ struct CutEngine::Impl {
             const double h = height(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]));
             if (h < 0.25 * p.snapDistance && f.idx() >= facesBefore)
               std::cerr << "extend made sliver h=" << h << " fill=" << static_cast<int>(fill) << " chain=" << chainLen
-                        << " paired=" << paired << "\n";
+                        << " paired=" << paired << " f" << f.idx() << ": " << fv[0] << m.position(fv[0]).transpose()
+                        << " " << fv[1] << m.position(fv[1]).transpose() << " " << fv[2]
+                        << m.position(fv[2]).transpose() << "\n";
           }
     }
     const std::size_t dirtyBefore = dirty.size();
@@ -1097,15 +1132,181 @@ struct CutEngine::Impl {
         tris);
   }
 
-  // Smallest angle of triangle (a, b, c) [radians].
-  static double minAngle(const Vec3& a, const Vec3& b, const Vec3& c) {
-    auto at = [](const Vec3& o, const Vec3& q, const Vec3& r) {
-      return std::atan2((q - o).cross(r - o).norm(), (q - o).dot(r - o));
-    };
-    const double x = at(a, b, c), y = at(b, c, a);
-    return std::min({x, y, M_PI - x - y});
+  // Sine of the smallest angle of triangle (a, b, c) (no trigonometry): the smallest
+  // angle lies between the two longest edges (and is at most 60°).
+  static double minAngleSin(const Vec3& a, const Vec3& b, const Vec3& c) {
+    const double l0 = (b - a).squaredNorm(), l1 = (c - b).squaredNorm(), l2 = (a - c).squaredNorm();
+    const double shortest = std::min({l0, l1, l2});
+    if (!(shortest > 0.0)) return 0.0;
+    return (b - a).cross(c - a).norm() / std::sqrt(l0 * l1 * l2 / shortest);
   }
-  static constexpr double kMinWallAngle = 12.0 * M_PI / 180.0;
+  // How far ahead of a groove's bottom vertex the blade's depth may be (in groove
+  // depths; the wall angle usually decides first), and how far the bottom vertex may be
+  // off the bottom's line, through the blade's depth points (fraction of the depth).
+  static constexpr double kBottomReach = 4.0;
+  static constexpr double kBottomDepthTol = 0.1;
+
+  // The faces around a groove-bottom vertex o: its two other corners in face order, the
+  // face's normal, squared smallest-angle sine and height, the squared length of the
+  // edge opposite o (kept between steps). A face of the other wall over the same
+  // corners (the walls of a groove are copies of each other) is listed once.
+  struct StarFace {
+    Vec3 a, b, n;
+    double sin2, h2, ab2;
+  };
+  std::vector<StarFace> starBuf;
+  std::vector<Face> starFaces;
+
+  // Squared smallest-angle sine and squared smallest height of triangle (q, a, b), given
+  // the cross product c = (a - q) x (b - q) and the squared length ab2 of a - b.
+  static void shape2(const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c, double ab2, double& sin2, double& h2) {
+    const double qa2 = (a - q).squaredNorm(), qb2 = (b - q).squaredNorm();
+    const double c2 = c.squaredNorm();
+    const double shortest = std::min({qa2, qb2, ab2}), longest = std::max({qa2, qb2, ab2});
+    sin2 = shortest > 0.0 ? c2 * shortest / (qa2 * qb2 * ab2) : 0.0;
+    h2 = longest > 0.0 ? c2 / longest : 0.0;
+  }
+
+  // Where o could move along the groove, from its place toward depthN (the blade's
+  // depth under the new path vertex N), so that the new wall triangle (v, N, o) and all
+  // of o's triangles are best: largest smallest-angle sine of the new triangle and of
+  // every triangle the move makes worse; none may flip or get thinner than min(thr, its
+  // height), and o may not come near another vertex. Returns that sine, -1 when o
+  // carries anything but groove walls or nothing fits.
+  template <class Reach, class Line>
+  double bestSlide(SurfaceMesh& m, Vertex o, Vertex v, Vertex N, const Vec3& depthN, double thr, const Reach& inReach,
+                   const Line& onLine, Vec3& best) {
+    const Vec3 pv = m.position(v), pN = m.position(N), po = m.position(o);
+    // The first bottom vertex of a groove stays (its walls ramp up to where the cut
+    // began: moved on, the groove would start shallower than the blade cut it).
+    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    bool follows = false;
+    for (Edge e : m.edges(o)) follows = follows || apexProp[m.otherVertex(e, o)] != 0;
+    if (!follows) return -1.0;
+    facesAround(m, o, starFaces);
+    auto kinds = kindsOf(m);
+    starBuf.clear();
+    for (Face f : starFaces) {
+      if (kinds[f] != kGrooveWall) return -1.0;
+      const auto& fv = m.vertices(f);
+      const int k = m.localIndex(f, o);
+      if (k < 0) return -1.0;
+      StarFace sf;
+      sf.a = m.position(fv[static_cast<std::size_t>((k + 1) % 3)]);
+      sf.b = m.position(fv[static_cast<std::size_t>((k + 2) % 3)]);
+      bool twin = false;
+      for (const StarFace& g : starBuf) twin = twin || (g.a == sf.b && g.b == sf.a);
+      if (twin) continue;
+      sf.n = (sf.a - po).cross(sf.b - po);
+      sf.ab2 = (sf.b - sf.a).squaredNorm();
+      shape2(po, sf.a, sf.b, sf.n, sf.ab2, sf.sin2, sf.h2);
+      starBuf.push_back(sf);
+    }
+    const double thr2 = thr * thr, vN2 = (pN - pv).squaredNorm();
+    // o slides along the bottom's line only from a place on it (tissue moved by physics
+    // may have carried it off: such a slide would reshape its walls at once).
+    if (!onLine(po)) return -1.0;
+    auto quality = [&](double t) {
+      const Vec3 q = po + t * (depthN - po);
+      if (!inReach(q)) return -1.0;
+      double worst = 0.0, h2 = 0.0;
+      shape2(q, pv, pN, (pv - q).cross(pN - q), vN2, worst, h2);
+      if (h2 < thr2) return -1.0;
+      for (const StarFace& sf : starBuf) {
+        const Vec3 c = (sf.a - q).cross(sf.b - q);
+        if (c.dot(sf.n) <= 0.0) return -1.0;
+        double s2 = 0.0, fh2 = 0.0;
+        shape2(q, sf.a, sf.b, c, sf.ab2, s2, fh2);
+        if (fh2 < std::min(thr2, sf.h2)) return -1.0;
+        if (s2 < sf.sin2) worst = std::min(worst, s2);
+      }
+      return worst;
+    };
+    // Golden-section search on t in [0, 1] (the quality is a minimum of triangles that
+    // get worse and the new one that gets better as o moves on).
+    constexpr double g = 0.6180339887498949;
+    double lo = 0.0, hi = 1.0;
+    double bestT = 1.0, bestQ = quality(1.0);
+    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    double q1 = quality(x1), q2 = quality(x2);
+    for (int it = 0; it < kSlideSearchSteps; ++it) {
+      if (q1 < q2) {
+        lo = x1;
+        x1 = x2;
+        q1 = q2;
+        x2 = lo + g * (hi - lo);
+        q2 = quality(x2);
+      } else {
+        hi = x2;
+        x2 = x1;
+        q2 = q1;
+        x1 = hi - g * (hi - lo);
+        q1 = quality(x1);
+      }
+    }
+    for (auto [t, q] : {std::pair{x1, q1}, std::pair{x2, q2}})
+      if (q > bestQ) bestQ = q, bestT = t;
+    if (bestQ <= 0.0) return -1.0;
+    best = po + bestT * (depthN - po);
+    // Never onto another vertex: at the blade's depth under N, where another cut's new
+    // bottom vertex would go too (a cut retracing its own groove: both lips are cut).
+    if ((best - depthN).squaredNorm() < thr2 && !clearOfVertices(m, o, best, thr)) return -1.0;
+    return std::sqrt(bestQ);
+  }
+  static constexpr int kSlideSearchSteps = 6;
+
+  // No vertex but o within r of q (the object's tree: only faces whose box is near).
+  bool clearOfVertices(SurfaceMesh& m, Vertex o, const Vec3& q, double r) {
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+      if (&objects[i].mesh != &m) continue;
+      syncBvh(i);
+      collision::Box box;
+      box.extend(q);
+      box.min.array() -= r;
+      box.max.array() += r;
+      scratchFaces.clear();
+      bvhs[i].facesOverlapping(box, scratchFaces);
+      for (Face f : scratchFaces) {
+        if (!m.isValid(f)) continue;
+        for (Vertex x : m.vertices(f))
+          if (x != o && (m.position(x) - q).squaredNorm() < r * r) return false;
+      }
+    }
+    return true;
+  }
+
+  // Moves groove-bottom vertex o to q (its faces are all groove walls; n is the path
+  // vertex above): rest shape, springs and masses of the tissue follow, and the tree
+  // refits o's boxes at its next sync (before any query).
+  void slideBottom(int obj, Vertex o, const Vec3& q, Vertex n, const Vec3& depthN) {
+    SurfaceMesh& m = meshOf(obj);
+    if (dbg())
+      std::cerr << "slide bottom " << o << " from " << m.position(o).transpose() << " to " << q.transpose() << "\n";
+    const Vec3 po = m.position(o);
+    m.position(o) = q;
+    ++stats.bottomSlides;
+    if (tissue(obj)) {
+      // Its rest place moves as far toward a new bottom vertex's at depthN (N's, offset
+      // as in the world, as fillQuad does).
+      auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+      const double full = (depthN - po).norm();
+      const double t = full > 0.0 ? std::clamp((q - po).norm() / full, 0.0, 1.0) : 1.0;
+      if (home) home[o] += t * (home[n] + (depthN - m.position(n)) - home[o]);
+      std::vector<Vertex> around{o};
+      for (Edge e : m.edges(o)) around.push_back(m.otherVertex(e, o));
+      for (Edge e : m.edges(o)) physics::initEdge(m, e, p.tissue);
+      physics::redistributeMass(m, around, p.tissue);
+    }
+    slidPending.emplace_back(obj, o);  // its boxes are refitted at the next sync
+    // Its faces changed shape: the flips' thinness test must see them again.
+    for (ThinCache& c : thinCaches)
+      if (c.obj == obj)
+        for (Edge e : m.edges(o))
+          for (int side = 0; side < 2; ++side) {
+            const Face f = m.face(e, side);
+            if (f.isValid() && f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+          }
+  }
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
   static double height(const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -2293,10 +2494,20 @@ struct CutEngine::Impl {
         ++stats.regionRefits;
         stats.verticesRefitted += static_cast<long>(movedList[i].size());
       }
+      if (!moved[i] && !slidPending.empty()) {
+        // Groove-bottom vertices the cutter moved (slideBottom) since the last sync.
+        slidScratch.clear();
+        for (const auto& [id, x] : slidPending)
+          if (id == objects[i].id && m.isValid(x)) slidScratch.push_back(x);
+        if (!slidScratch.empty()) b.refitVertices(m, std::span<const Vertex>(slidScratch));
+      }
     }
+    std::erase_if(slidPending, [&](const auto& e) { return e.first == objects[i].id; });
     moved[i] = 0;
     movedList[i].clear();
   }
+  std::vector<std::pair<int, Vertex>> slidPending;  // (object id, vertex) moved by slideBottom
+  std::vector<Vertex> slidScratch;
 
   // Physics moved these vertices (told by verticesMoved): kept until the next query.
   void noteMoved(std::size_t i, std::span<const std::uint32_t> list) {
@@ -2407,9 +2618,9 @@ struct CutEngine::Impl {
 
   // Faces the flips' thinness test has passed, per object: a face is tested again only
   // once an edit re-set it (the journal lists it) or the caller moved vertices
-  // (motionCount); the cutter itself never moves a vertex, so a face that passed keeps
-  // its shape until then. Faces found thin are not remembered (a later flip may fix
-  // them). The result is the one of testing every face around every edited vertex.
+  // (motionCount); the cutter itself moves a vertex only when a groove bottom slides
+  // (slideBottom un-marks its faces), so a face that passed keeps its shape until then. Faces found thin are not
+  // remembered (a later flip may fix them). The result is the one of testing every face around every edited vertex.
   struct ThinCache {
     int obj = -1;
     std::uint64_t layout = 0;
@@ -2839,7 +3050,7 @@ struct CutEngine::Impl {
 CutEngine::CutEngine(CutParams params) : impl_(std::make_unique<Impl>()) {
   if (!(params.snapDistance >= 0.0) || !(params.snapFraction >= 0.0) || params.snapFraction >= 0.5 ||
       !(params.maxSubstep > 0.0) || params.maxSubsteps < 1 || !(params.matchRadius > 0.0) ||
-      !(params.grooveSpacing >= 0.0))
+      !(params.grooveSpacing >= 0.0) || !(params.wallMinAngleDeg >= 0.0) || params.wallMinAngleDeg > 60.0)
     throw CutError("CutParams out of range");
   impl_->p = params;
   (void)timerOverhead();  // calibrated before the first interval

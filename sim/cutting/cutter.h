@@ -38,9 +38,15 @@ struct CutParams {
   double snapDistance = 0.05;
   // ... and no split of an edge closer to an end than this fraction of its length.
   double snapFraction = 0.08;
-  // Groove bottom vertices are at least this far apart along the groove [mm]; between
-  // them the walls fan around the last bottom vertex (fewer triangles per cut).
+  // The last step of a groove puts its bottom within this of the blade's depth; mid-
+  // stroke the bottom vertex may be at least this far behind it [mm] (the walls fan
+  // around it: fewer triangles per cut).
   double grooveSpacing = 1.0;
+  // Smallest angle a groove's wall triangles keep where the geometry allows it [degrees]:
+  // the groove-bottom vertex is reused, or slid on along the groove, while its triangles
+  // keep it; else a new one goes under the blade. Lower: fewer triangles, thinner walls
+  // (3 is about the surface's own worst, an edge split at snapFraction next to a vertex).
+  double wallMinAngleDeg = 3.0;
   // Motion of a cutting edge longer than this between two samples is split into
   // interpolated sub-samples (the swept test: fast strokes miss nothing) [mm].
   double maxSubstep = 0.5;
@@ -115,6 +121,7 @@ struct CutStats {
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)
   long flips = 0;                  // edges flipped to remove thin triangles
+  long bottomSlides = 0;           // groove-bottom vertices moved on along the groove (instead of new ones)
   long longestFront = 0;           // most vertices a cut's front (tip to the other side) has had
   long sliverSnaps = 0;            // points moved onto a vertex because a split there would make a sliver
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded

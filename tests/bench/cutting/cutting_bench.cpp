@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "sim/cutting/cutter.h"
 #include "sim/cutting/mesh_checks.h"
@@ -31,6 +32,23 @@ double threadCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+// Smallest angle of the cut's walls (face kind 1 groove wall, 2 side wall) [degrees].
+double wallAngleDeg(const ld::mesh::SurfaceMesh& m) {
+  double worst = 180.0;
+  const auto kinds = m.getFaceProperty<int>(ld::cutting::kFaceKindProp);
+  if (!kinds) return worst;
+  for (auto f : m.faces()) {
+    if (kinds[f] == 0) continue;
+    const auto& v = m.vertices(f);
+    const Vec3 p[3] = {m.position(v[0]), m.position(v[1]), m.position(v[2])};
+    for (int i = 0; i < 3; ++i) {
+      const Vec3 a = p[(i + 1) % 3] - p[i], b = p[(i + 2) % 3] - p[i];
+      worst = std::min(worst, std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI);
+    }
+  }
+  return worst;
+}
+
 // Parallel strokes across the slab: cut-through (tip below) or groove (tip inside).
 void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
   for (int s = 0; s < strokes; ++s) {
@@ -48,13 +66,17 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 //   separation_ms               CutStats::separationSeconds (finding and splitting off
 //                               freed pieces);
 //   separations, longest_front  CutStats: pieces freed (4 for the through-cut), most
-//                               vertices a cut's front had (tip to the other layer).
+//                               vertices a cut's front had (tip to the other layer);
+//   bottom_slides               CutStats::bottomSlides (groove-bottom vertices moved on);
+//   min_angle_deg, min_area_mm2 the meshes' smallest triangle angle and area;
+//   wall_min_angle_deg          the same angle over the cut's walls only.
 void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int kind) {
   // 0: cut-through, 1: groove 2 mm deep, 2: shallow groove 0.4 mm deep (the hook's
   // usual depth: long, low walls), 3: groove deepening through the bottom mid-stroke.
   const double tipZ = kind == 0 ? -4.0 : (kind == 2 ? 2.1 : 0.5);
-  double us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0, strokeUs = 0, sepMs = 0;
-  long cut = 0, separations = 0, longestFront = 0;
+  double wallMinAngle = 0, us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0, strokeUs = 0,
+         sepMs = 0;
+  long cut = 0, separations = 0, longestFront = 0, slides = 0;
   for (auto _ : state) {
     state.PauseTiming();
     ld::cutting::CutEngine e;
@@ -77,6 +99,7 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
     cut = st.trianglesCut;
     separations = st.separations;
     longestFront = st.longestFront;
+    slides = st.bottomSlides;
     strokeUs = strokeSeconds * 1e6 / static_cast<double>(std::max(1L, st.trianglesCut));
     sepMs = st.separationSeconds * 1e3;
     perTri = static_cast<double>(st.trianglesAdded) / static_cast<double>(std::max(1L, st.trianglesCut));
@@ -85,15 +108,18 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
     state.PauseTiming();
     minAngle = 180.0;
     minArea = 1e300;
+    wallMinAngle = 180.0;
     for (const auto& o : e.objects()) {
       const auto q = ld::cutting::measureQuality(o.mesh);
       minAngle = std::min(minAngle, q.minAngleDeg);
       minArea = std::min(minArea, q.minArea);
+      wallMinAngle = std::min(wallMinAngle, wallAngleDeg(o.mesh));
     }
     state.ResumeTiming();
   }
   state.counters["min_angle_deg"] = minAngle;
   state.counters["min_area_mm2"] = minArea;
+  state.counters["wall_min_angle_deg"] = wallMinAngle;
   state.counters["collision_us_per_query"] = collUs;
   state.counters["slow_samples_per_cut_triangle"] = slowPerTri;
   state.counters["remesh_us_per_cut_triangle"] = us;
@@ -103,6 +129,7 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
   state.counters["triangles_cut"] = static_cast<double>(cut);
   state.counters["separations"] = static_cast<double>(separations);
   state.counters["longest_front"] = static_cast<double>(longestFront);
+  state.counters["bottom_slides"] = static_cast<double>(slides);
 }
 
 void BM_Remesh(benchmark::State& state) {

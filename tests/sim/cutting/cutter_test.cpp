@@ -88,6 +88,67 @@ TEST(Cutter, ShallowStrokeMakesAGrooveAtTheTipDepth) {
   EXPECT_GE(bottom, 2);
 }
 
+// Smallest angle of the groove walls [degrees].
+double grooveWallAngle(const mesh::SurfaceMesh& m) {
+  auto prop = m.getFaceProperty<int>(kFaceKindProp);
+  double worst = 180.0;
+  for (auto f : m.faces()) {
+    if (prop[f] != kGrooveWall) continue;
+    const auto& v = m.vertices(f);
+    for (int i = 0; i < 3; ++i) {
+      const Vec3 a = m.position(v[(i + 1) % 3]) - m.position(v[i]), b = m.position(v[(i + 2) % 3]) - m.position(v[i]);
+      worst = std::min(worst, std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI);
+    }
+  }
+  return worst;
+}
+
+// The groove benchmark's stroke (a 2 mm deep groove across the default slab's cells):
+// the groove-bottom vertex slides on under the blade instead of a new one every few
+// steps, so the groove adds at most 4 triangles per cut triangle; its walls keep
+// wallMinAngleDeg but where a short path step allows no better; closed and manifold;
+// bottom vertices stay at the blade's depth, on its line.
+TEST(Cutter, GrooveBottomSlidesOnUnderTheBlade) {
+  auto run = [](double wallMinAngle, long& added, long& cut, long& slides, double& wallAngle) {
+    CutParams params;
+    params.wallMinAngleDeg = wallMinAngle;
+    CutEngine e(params);
+    e.addObject(test::makeBox(Vec3(-40, -30, -2.5), Vec3(40, 30, 2.5), {54, 40, 4}));
+    const double y = -25.0 + 50.0 * 0.37 / 4;
+    int sample = 0;  // (every 10th sample: the slab has 17k faces)
+    test::stroke(e, Vec3(-45, y, 0.5), Vec3(45, y + 3.1, 0.5), Vec3(0, 0, -1), 100.0, 1000.0, [&sample](CutEngine& en) {
+      if (++sample % 10 == 0) expectSound(en, true);
+    });
+    expectSound(e, true);
+    ASSERT_EQ(e.objects().size(), 1u);
+    const auto& m = e.objects()[0].mesh;
+    for (auto v : m.vertices()) {
+      const Vec3 p = m.position(v);
+      if (p.z() > -2.49 && p.z() < 2.49 && std::abs(p.x()) < 39.99 && std::abs(p.y()) < 29.99) {
+        EXPECT_NEAR(p.z(), 0.5, 1e-9);
+        EXPECT_NEAR(p.y(), y + 3.1 * (p.x() + 45) / 90, 1e-9);
+      }
+    }
+    added = e.stats().trianglesAdded;
+    cut = e.stats().trianglesCut;
+    slides = e.stats().bottomSlides;
+    wallAngle = grooveWallAngle(m);
+  };
+  long added = 0, cut = 0, slides = 0;
+  double wallAngle = 0;
+  run(3.0, added, cut, slides, wallAngle);
+  EXPECT_GT(slides, 0);
+  EXPECT_LE(static_cast<double>(added) / static_cast<double>(cut), 4.0);
+  EXPECT_GE(wallAngle, 2.9);  // 3° but where a short step under the groove allows no better
+  // A fussier floor: more bottom vertices, more triangles, better walls.
+  long added12 = 0, cut12 = 0, slides12 = 0;
+  double wallAngle12 = 0;
+  run(12.0, added12, cut12, slides12, wallAngle12);
+  EXPECT_EQ(cut12, cut);
+  EXPECT_GT(added12, added + cut / 10);
+  EXPECT_GE(wallAngle12, wallAngle);
+}
+
 TEST(Cutter, EnteringAndLeavingThroughTheSameSideCutsANotch) {
   CutEngine e;
   e.addObject(slab());
