@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <functional>
 #include <iostream>
@@ -1155,7 +1156,7 @@ struct CutEngine::Impl {
     double sin2, h2, ab2;
   };
   std::vector<StarFace> starBuf;
-  std::vector<Face> starFaces;
+  std::vector<int> starTable;  // open addressing over starBuf by corner positions
 
   // Squared smallest-angle sine and squared smallest height of triangle (q, a, b), given
   // the cross product c = (a - q) x (b - q) and the squared length ab2 of a - b.
@@ -1183,25 +1184,51 @@ struct CutEngine::Impl {
     bool follows = false;
     for (Edge e : m.edges(o)) follows = follows || apexProp[m.otherVertex(e, o)] != 0;
     if (!follows) return -1.0;
-    facesAround(m, o, starFaces);
+    // Each face once, from the edge on which it leaves o (no search through a list: a
+    // groove-bottom vertex carries many faces), and a twin (the other wall's face over
+    // the same corners) found through a small hash of its corners. The search's result
+    // does not depend on the order of the faces nor on a face being listed twice (a
+    // smallest value; the twin's tests are the same numbers).
     auto kinds = kindsOf(m);
     starBuf.clear();
-    for (Face f : starFaces) {
-      if (kinds[f] != kGrooveWall) return -1.0;
-      const auto& fv = m.vertices(f);
-      const int k = m.localIndex(f, o);
-      if (k < 0) return -1.0;
-      StarFace sf;
-      sf.a = m.position(fv[static_cast<std::size_t>((k + 1) % 3)]);
-      sf.b = m.position(fv[static_cast<std::size_t>((k + 2) % 3)]);
-      bool twin = false;
-      for (const StarFace& g : starBuf) twin = twin || (g.a == sf.b && g.b == sf.a);
-      if (twin) continue;
-      sf.n = (sf.a - po).cross(sf.b - po);
-      sf.ab2 = (sf.b - sf.a).squaredNorm();
-      shape2(po, sf.a, sf.b, sf.n, sf.ab2, sf.sin2, sf.h2);
-      starBuf.push_back(sf);
-    }
+    std::size_t tableSize = 64;
+    while (tableSize < 4 * m.edges(o).size()) tableSize *= 2;
+    starTable.assign(tableSize, -1);
+    const std::size_t mask = tableSize - 1;
+    auto keyOf = [](const Vec3& x) {
+      std::uint64_t u = 0;
+      const double d = x.x() + 0.0;  // -0 and +0 alike
+      std::memcpy(&u, &d, sizeof u);
+      return (u ^ (u >> 29)) * 0x9E3779B97F4A7C15ull;
+    };
+    for (Edge e : m.edges(o))
+      for (int side = 0; side < 2; ++side) {
+        const Face f = m.face(e, side);
+        if (!f.isValid()) continue;
+        const int k = m.localIndex(f, o);
+        if (k < 0) return -1.0;
+        if (m.edges(f)[static_cast<std::size_t>(k)] != e) continue;  // listed from its other edge at o
+        if (kinds[f] != kGrooveWall) return -1.0;
+        const auto& fv = m.vertices(f);
+        StarFace sf;
+        sf.a = m.position(fv[static_cast<std::size_t>((k + 1) % 3)]);
+        sf.b = m.position(fv[static_cast<std::size_t>((k + 2) % 3)]);
+        std::size_t slot = static_cast<std::size_t>((keyOf(sf.a) + keyOf(sf.b)) >> 40) & mask;
+        bool twin = false;
+        for (; starTable[slot] >= 0; slot = (slot + 1) & mask) {
+          const StarFace& g = starBuf[static_cast<std::size_t>(starTable[slot])];
+          if ((g.a == sf.b && g.b == sf.a) || (g.a == sf.a && g.b == sf.b)) {
+            twin = true;
+            break;
+          }
+        }
+        if (twin) continue;
+        sf.n = (sf.a - po).cross(sf.b - po);
+        sf.ab2 = (sf.b - sf.a).squaredNorm();
+        shape2(po, sf.a, sf.b, sf.n, sf.ab2, sf.sin2, sf.h2);
+        starTable[slot] = static_cast<int>(starBuf.size());
+        starBuf.push_back(sf);
+      }
     const double thr2 = thr * thr, vN2 = (pN - pv).squaredNorm();
     // o slides along the bottom's line only from a place on it (tissue moved by physics
     // may have carried it off: such a slide would reshape its walls at once).
