@@ -2757,30 +2757,46 @@ struct CutEngine::Impl {
   void improveAround(int obj, Vertex v, ThinCache& ok) {
     SurfaceMesh& m = meshOf(obj);
     const double floor = 0.5 * p.snapDistance;
+    const std::uint32_t* okGen = nullptr;
+    std::size_t okSize = 0;
     for (int round = 0; round < 4; ++round) {
-      bool flipped = false;
-      for (Edge ev : m.edges(v)) {
-        for (int s = 0; s < 2 && !flipped; ++s) {
+      // The faces around v not passed yet, in the order of v's edges (both sides):
+      // most have passed, and this loop calls nothing, so it stays tight. Then the
+      // tests in that order, as one loop over edges and sides would make them (a face
+      // listed twice is passed or, thin, tried again with the same result).
+      const auto& es = m.edges(v);
+      thinTodo.resize(2 * es.size());
+      Face* todo = thinTodo.data();
+      std::size_t n = 0;
+      okGen = ok.okGen.data();
+      okSize = ok.okGen.size();
+      const std::uint32_t gen = ok.gen;
+      for (Edge ev : es)
+        for (int s = 0; s < 2; ++s) {
           const Face f = m.face(ev, s);
-          if (!f.isValid() || ok.passed(f)) continue;
-          if (!thinnerThan(m, f, floor)) {
-            ok.pass(f);
-            continue;
-          }
-          Edge longest;
-          double L = -1.0;
-          for (Edge g : m.edges(f))
-            if (m.edgeLength(g) > L) {
-              L = m.edgeLength(g);
-              longest = g;
-            }
-          flipped = tryFlip(obj, longest);
+          if (f.isValid() && !(f.idx() < okSize && okGen[f.idx()] == gen)) todo[n++] = f;
         }
-        if (flipped) break;  // edges of v changed
+      bool flipped = false;
+      for (std::size_t i = 0; i < n && !flipped; ++i) {
+        const Face f = thinTodo[i];
+        if (ok.passed(f)) continue;
+        if (!thinnerThan(m, f, floor)) {
+          ok.pass(f);
+          continue;
+        }
+        Edge longest;
+        double L = -1.0;
+        for (Edge g : m.edges(f))
+          if (const double l = m.edgeLength(g); l > L) {
+            L = l;
+            longest = g;
+          }
+        flipped = tryFlip(obj, longest);  // edges of v changed: list them again
       }
       if (!flipped) return;
     }
   }
+  std::vector<Face> thinTodo;
 
   void debugScan(const char* where) {
     if (!dbg()) return;
