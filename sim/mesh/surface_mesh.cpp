@@ -35,13 +35,13 @@ void SurfaceMesh::initBuiltins() {
   fprops_ = PropertyContainer();
   vprops_.add<Point>("v:point", Point::Zero());
   vprops_.add<std::vector<Edge>>("v:edges", {});
-  vprops_.add<bool>("v:deleted", false);
+  vprops_.add<std::uint8_t>("v:deleted", 0);
   eprops_.add<std::array<Vertex, 2>>("e:vertices", {});
   eprops_.add<std::array<Face, 2>>("e:faces", {});
-  eprops_.add<bool>("e:deleted", false);
+  eprops_.add<std::uint8_t>("e:deleted", 0);
   fprops_.add<std::array<Vertex, 3>>("f:vertices", {});
   fprops_.add<std::array<Edge, 3>>("f:edges", {});
-  fprops_.add<bool>("f:deleted", false);
+  fprops_.add<std::uint8_t>("f:deleted", 0);
   deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
   bindProperties();
   newLayout();
@@ -50,13 +50,13 @@ void SurfaceMesh::initBuiltins() {
 void SurfaceMesh::bindProperties() {
   points_ = getVertexProperty<Point>("v:point");
   vedges_ = getVertexProperty<std::vector<Edge>>("v:edges");
-  vdeleted_ = getVertexProperty<bool>("v:deleted");
+  vdeleted_ = getVertexProperty<std::uint8_t>("v:deleted");
   everts_ = getEdgeProperty<std::array<Vertex, 2>>("e:vertices");
   efaces_ = getEdgeProperty<std::array<Face, 2>>("e:faces");
-  edeleted_ = getEdgeProperty<bool>("e:deleted");
+  edeleted_ = getEdgeProperty<std::uint8_t>("e:deleted");
   fverts_ = getFaceProperty<std::array<Vertex, 3>>("f:vertices");
   fedges_ = getFaceProperty<std::array<Edge, 3>>("f:edges");
-  fdeleted_ = getFaceProperty<bool>("f:deleted");
+  fdeleted_ = getFaceProperty<std::uint8_t>("f:deleted");
 }
 
 SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
@@ -272,7 +272,7 @@ void SurfaceMesh::deleteEmptyEdge(Edge e) {
   if (edeleted_[e] || efaces_[e][0].isValid()) return;
   removeEdgeFromVertex(everts_[e][0], e);
   removeEdgeFromVertex(everts_[e][1], e);
-  edeleted_[e] = true;
+  edeleted_[e] = 1;
   ++deletedEdges_;
   journalE_.push_back(e);
 }
@@ -309,7 +309,7 @@ void SurfaceMesh::deleteFace(Face f) {
   check(f, "deleteFace");
   detachFace(f);
   for (Edge e : fedges_[f]) deleteEmptyEdge(e);
-  fdeleted_[f] = true;
+  fdeleted_[f] = 1;
   ++deletedFaces_;
   journalF_.push_back(f);
   ++topologyVersion_;
@@ -320,7 +320,7 @@ void SurfaceMesh::deleteVertex(Vertex v) {
   auto& around = scratch_.around;
   faces(v, around);
   for (Face f : around) deleteFace(f);
-  vdeleted_[v] = true;
+  vdeleted_[v] = 1;
   ++deletedVertices_;
   journalV_.push_back(v);
   ++topologyVersion_;

@@ -99,7 +99,7 @@ class HandleRange {
     using value_type = H;
     using difference_type = std::ptrdiff_t;
     Iterator() = default;
-    Iterator(typename H::Index i, const std::vector<bool>* deleted) : i_(i), deleted_(deleted) { skip(); }
+    Iterator(typename H::Index i, const std::vector<std::uint8_t>* deleted) : i_(i), deleted_(deleted) { skip(); }
     H operator*() const { return H(i_); }
     Iterator& operator++() {
       ++i_;
@@ -115,17 +115,17 @@ class HandleRange {
 
    private:
     void skip() {
-      while (deleted_ && i_ < deleted_->size() && (*deleted_)[i_]) ++i_;
+      while (deleted_ && i_ < deleted_->size() && (*deleted_)[i_] != 0) ++i_;
     }
     typename H::Index i_ = 0;
-    const std::vector<bool>* deleted_ = nullptr;
+    const std::vector<std::uint8_t>* deleted_ = nullptr;
   };
-  explicit HandleRange(const std::vector<bool>* deleted) : deleted_(deleted) {}
+  explicit HandleRange(const std::vector<std::uint8_t>* deleted) : deleted_(deleted) {}
   [[nodiscard]] Iterator begin() const { return Iterator(0, deleted_); }
   [[nodiscard]] Iterator end() const { return Iterator(static_cast<typename H::Index>(deleted_->size()), deleted_); }
 
  private:
-  const std::vector<bool>* deleted_;
+  const std::vector<std::uint8_t>* deleted_;
 };
 
 class SurfaceMesh {
@@ -169,13 +169,13 @@ class SurfaceMesh {
 
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
 
-  [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v]; }
-  [[nodiscard]] bool isDeleted(Edge e) const { return edeleted_[e]; }
-  [[nodiscard]] bool isDeleted(Face f) const { return fdeleted_[f]; }
+  [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v] != 0; }
+  [[nodiscard]] bool isDeleted(Edge e) const { return edeleted_[e] != 0; }
+  [[nodiscard]] bool isDeleted(Face f) const { return fdeleted_[f] != 0; }
   // In range and not deleted.
-  [[nodiscard]] bool isValid(Vertex v) const { return v.isValid() && v.idx() < verticesSize() && !vdeleted_[v]; }
-  [[nodiscard]] bool isValid(Edge e) const { return e.isValid() && e.idx() < edgesSize() && !edeleted_[e]; }
-  [[nodiscard]] bool isValid(Face f) const { return f.isValid() && f.idx() < facesSize() && !fdeleted_[f]; }
+  [[nodiscard]] bool isValid(Vertex v) const { return v.isValid() && v.idx() < verticesSize() && vdeleted_[v] == 0; }
+  [[nodiscard]] bool isValid(Edge e) const { return e.isValid() && e.idx() < edgesSize() && edeleted_[e] == 0; }
+  [[nodiscard]] bool isValid(Face f) const { return f.isValid() && f.idx() < facesSize() && fdeleted_[f] == 0; }
 
   [[nodiscard]] HandleRange<Vertex> vertices() const { return HandleRange<Vertex>(&vdeleted_.vector()); }
   [[nodiscard]] HandleRange<Edge> edges() const { return HandleRange<Edge>(&edeleted_.vector()); }
@@ -366,13 +366,13 @@ class SurfaceMesh {
   PropertyContainer vprops_, eprops_, fprops_;
   VertexProperty<Point> points_;
   VertexProperty<std::vector<Edge>> vedges_;
-  VertexProperty<bool> vdeleted_;
+  VertexProperty<std::uint8_t> vdeleted_;  // bytes, not bits: read on every isValid()
   EdgeProperty<std::array<Vertex, 2>> everts_;
   EdgeProperty<std::array<Face, 2>> efaces_;
-  EdgeProperty<bool> edeleted_;
+  EdgeProperty<std::uint8_t> edeleted_;
   FaceProperty<std::array<Vertex, 3>> fverts_;
   FaceProperty<std::array<Edge, 3>> fedges_;
-  FaceProperty<bool> fdeleted_;
+  FaceProperty<std::uint8_t> fdeleted_;
   std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
   std::uint64_t topologyVersion_ = 0;
   std::uint64_t layoutVersion_;
