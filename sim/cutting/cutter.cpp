@@ -805,7 +805,10 @@ struct CutEngine::Impl {
       double qApex = -1.0;
       if (chain.size() == 1) {
         const Vec3 po = m.position(o);
-        Vec3 want = paired ? Vec3(0.5 * (pN + po)) : depthN;
+        // Between the layers: halfway from N to o, or inside the wall triangle when N and
+        // o are already joined by an edge (both tips on a side face the blade is leaving
+        // along: halfway would sit on that edge and leave the cut-out loop no area).
+        Vec3 want = paired ? (m.findEdge(N, o).isValid() ? Vec3((pv + pN + po) / 3.0) : Vec3(0.5 * (pN + po))) : depthN;
         if (!paired && (depthN - pN).norm() < p.snapDistance) {
           // Keep the groove at least the snapping distance deep (no flat walls).
           const Vec3 n = rawNormal(m, m.face(eOut, 0)).normalized();
@@ -857,6 +860,11 @@ struct CutEngine::Impl {
                   << (P ? P->tip : Vertex()) << "\n";
       if (dbg() && !paired && chain.size() == 1)
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
+      if (dbg() && !paired && chain.size() > 1) {
+        std::cerr << "groove chain step " << v << " -> " << N << "(" << pN.transpose() << ") fill " << static_cast<int>(fill) << " chain";
+        for (Vertex x : chain) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
+        std::cerr << "\n";
+      }
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
         tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
@@ -1013,6 +1021,11 @@ struct CutEngine::Impl {
   // Never under the sliver floor (sliverHeight = 0.6 thr), even on a long front.
   static bool halvesOk(const SurfaceMesh& m, Vertex N, Vertex v, const std::vector<Vertex>& chain, double thr) {
     if (m.findEdge(N, chain.back()).isValid()) return false;
+    // A front that folds back onto itself (a vertex and its copy, e.g. a tunnel's path
+    // left to open as a groove) is not the boundary the halves would close.
+    for (std::size_t i = 0; i < chain.size(); ++i)
+      for (std::size_t j = i + 1; j < chain.size(); ++j)
+        if ((m.position(chain[i]) - m.position(chain[j])).squaredNorm() == 0.0) return false;
     std::vector<Vertex> half{N, v};
     half.insert(half.end(), chain.begin(), chain.end());
     double shortest = std::numeric_limits<double>::infinity();
@@ -1029,13 +1042,22 @@ struct CutEngine::Impl {
   bool fillHalvesAt(int obj, Vertex a, Vertex b, int kind) {
     SurfaceMesh& m = meshOf(obj);
     const Edge be = boundaryEdgeAt(m, a);
-    if (!be.isValid() || m.findEdge(a, b).isValid()) return false;
+    if (!be.isValid() || m.findEdge(a, b).isValid()) {
+      if (dbg()) std::cerr << "fillHalvesAt: no boundary at a or edge a-b\n";
+      return false;
+    }
     std::vector<Vertex> loop = boundaryLoop(m, be, 4 * kLongFront + 16);
     const auto ia = std::find(loop.begin(), loop.end(), a);
-    if (ia == loop.end()) return false;
+    if (ia == loop.end()) {
+      if (dbg()) std::cerr << "fillHalvesAt: a not on loop of " << loop.size() << "\n";
+      return false;
+    }
     std::rotate(loop.begin(), ia, loop.end());
     const auto ib = std::find(loop.begin(), loop.end(), b);
-    if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) return false;
+    if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) {
+      if (dbg()) std::cerr << "fillHalvesAt: b not across the loop of " << loop.size() << " (at " << (ib - loop.begin()) << ")\n";
+      return false;
+    }
     // Each half starts after a loop edge, so that its first triangle (on the closing
     // edge: last vertex, first) takes its orientation from the face already there.
     std::vector<Vertex> h1(loop.begin() + 1, ib + 1), h2(ib + 1, loop.end());
@@ -1053,6 +1075,7 @@ struct CutEngine::Impl {
             return x != y && !m.findEdge(x, y).isValid();
           },
           tris);
+      if (dbg()) std::cerr << "fillHalvesAt: half of " << h->size() << " quality " << q << "\n";
       bool ok = q > -std::numeric_limits<double>::infinity();
       for (std::size_t t = 0; ok && t < tris.size(); ++t) {
         const auto& tri = tris[t];
@@ -1424,8 +1447,10 @@ struct CutEngine::Impl {
   // lies in a face around the current vertex (or the goal vertex is a neighbour).
   // With `collect`, the new vertices are only inserted and listed (the cut does not
   // open along them yet).
+  Edge walkBlockedAt;  // the edge whose crossing stopped the last walk next to the cut
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
+    walkBlockedAt = Edge();
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
     // depth0 belongs to the last sampled point (the pending one, else the tip): the
     // depth at a crossing is interpolated between the two samples around it, so it does
@@ -1526,7 +1551,10 @@ struct CutEngine::Impl {
         const Edge e = m.findEdge(best.a, best.b);
         bool blocked = false;
         N = edgeSnap(m, e, best.q, &tr.visited, &blocked);
-        if (blocked) return false;  // would touch the cut itself
+        if (blocked) {  // would touch the cut itself
+          walkBlockedAt = e;
+          return false;
+        }
         if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.q);
         ++stats.trianglesCut;
         ++res->trianglesCut;
@@ -1723,6 +1751,19 @@ struct CutEngine::Impl {
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
+    if (!ok && walkBlockedAt.isValid()) {
+      // The crossing has reached the other layer's tip (both layers leave over the
+      // same side, and the other got there first): nothing is left to cut on this side
+      // of it; the track waits for the cut-out.
+      const SurfaceMesh& mb = meshOf(tr.object);
+      if (const Track* P = trackById(tr.partner);
+          P && P->tip.isValid() && mb.isValid(walkBlockedAt) &&
+          (mb.vertex(walkBlockedAt, 0) == P->tip || mb.vertex(walkBlockedAt, 1) == P->tip)) {
+        if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
+        ++stats.holds;
+        return;
+      }
+    }
     if (!ok) {
       if (dbg()) {
         const SurfaceMesh& md = meshOf(tr.object);
@@ -1847,7 +1888,12 @@ struct CutEngine::Impl {
         A.hasPending = B.hasPending = false;
         const Vertex start = A.tip;
         std::vector<Vertex> path{start};
-        const bool walked = walk(A, g, n, motion.normalized(), maxLen, A.tipDepth, A.tipDepth, &path);
+        // The first step goes on with the motion (over the far edge) and toward B's tip:
+        // a tilted blade may have taken A's tip over the edge and down the far side
+        // already, where going on is square to the side and only B's tip tells which way.
+        const Vec3 first = (motion.normalized() + (pb - pa).normalized()).normalized();
+        const bool walked =
+            walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen, A.tipDepth, A.tipDepth, &path);
         if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
         if (walked && A.alive) {
           A.tip = start;
@@ -1894,7 +1940,7 @@ struct CutEngine::Impl {
       // the piece attached. Only a degenerate loop is refused, unless the tips are on
       // the far side already (snapped onto its edge: the walk runs down the rung).
       if (!(q > 1e-3 * p.snapDistance)) {
-        if (A.chain.size() != 1 || !openRung(A.object, loop)) return false;
+        if (!openRung(A.object, loop)) return false;
         cuts.pop_back();  // gone with its faces
       }
     }
@@ -1931,8 +1977,17 @@ struct CutEngine::Impl {
     const std::array<Face, 2> walls{m.face(rung, 0), m.face(rung, 1)};
     for (Face f : walls) {
       std::vector<Vertex> hole{m.oppositeVertex(f, rung)};
-      if (std::find(loop.begin(), loop.end(), hole[0]) != loop.end()) return false;
+      if (std::find(loop.begin(), loop.end(), hole[0]) != loop.end()) {
+        if (dbg()) std::cerr << "openRung: far corner on the loop\n";
+        return false;
+      }
       hole.insert(hole.end(), loop.begin(), loop.end());
+      if (dbg()) {
+        std::cerr << "openRung: hole quality " << loopQuality(m, hole) << " kind "
+                  << m.getFaceProperty<int>(kFaceKindProp)[f] << ":";
+        for (Vertex x : hole) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
+        std::cerr << "\n";
+      }
       if (!(loopQuality(m, hole) > 1e-3 * p.snapDistance)) return false;
     }
     for (Face f : walls) m.deleteFace(f);
@@ -2043,9 +2098,16 @@ struct CutEngine::Impl {
       WalkGoal g;
       g.point = h0.point;
       std::vector<Vertex> path;
-      ok = !n2.isZero() &&
-           walk(a, g, n2, -motion.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
-                h0.depth, h0.depth, &path);
+      // The first step goes back against the motion (around the edge the blade came
+      // over) and toward the other crossing: when the blade is tilted back, the lower
+      // crossing is on the side face the blade came through, where going back is
+      // square to the face and only the other crossing tells up from down.
+      Vec3 first = -motion.normalized();
+      if ((h0.point - from).norm() > 1e-12) first += (h0.point - from).normalized();
+      if (first.norm() < 1e-9) first = -motion;
+      ok = !n2.isZero() && walk(a, g, n2, first.normalized(),
+                                3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius, h0.depth,
+                                h0.depth, &path);
       a.pending = h0.point;
       a.pendingDepth = h0.depth;
       a.hasPending = true;
@@ -2332,6 +2394,56 @@ struct CutEngine::Impl {
   }
 
   // Per-sample work lists, kept between samples (no allocation once warm).
+  // Where the track's crossing has gone if the surface around it is flat: the new
+  // edge meets the plane of the face holding the last point there. A blade nearly
+  // parallel to that face (a tilted blade on an object's side face) moves its crossing
+  // many times as fast as itself (1 / sin of the angle); tracks are matched along the
+  // way from the last point to there (at most `reach` beyond the usual radius).
+  Vec3 crossingAhead(const Track& t, const Vec3& at, const instruments::Segment& s, double radius) {
+    const SurfaceMesh& m = meshOf(t.object);
+    Face f = t.tip.isValid() ? t.pendingFace : t.startFace;
+    if (t.tip.isValid() && (!m.isValid(f) || m.localIndex(f, t.tip) < 0 || !pointInFace(m, f, at, 1e-6))) {
+      f = Face();
+      for (Face g : m.faces(t.tip))
+        if (pointInFace(m, g, at, 1e-6)) {
+          f = g;
+          break;
+        }
+    }
+    if (!m.isValid(f)) return at;
+    const Vec3 nf = rawNormal(m, f);
+    const Vec3 ab = s.b - s.a;
+    const double den = nf.dot(ab);
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
+    const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
+    Vec3 q = s.a + u * ab;
+    const double reach = 8.0 * radius, d = (q - at).norm();
+    if (d > reach) q = at + (q - at) * (reach / d);
+    return q;
+  }
+  // The other way round: where the previous edge met the plane of the face holding a
+  // new crossing (a track's crossing that went over an edge of the object onto a face
+  // the blade is nearly parallel to runs on along it, up to `reach` beyond the radius).
+  Vec3 crossingBehind(const Hit& h, const instruments::Segment& prev, double radius) {
+    const SurfaceMesh& m = meshOf(h.object);
+    if (!m.isValid(h.face)) return h.point;
+    const Vec3 nf = rawNormal(m, h.face);
+    const Vec3 ab = prev.b - prev.a;
+    const double den = nf.dot(ab);
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return h.point;
+    const double u = std::clamp(nf.dot(h.point - prev.a) / den, 0.0, 1.0);
+    Vec3 q = prev.a + u * ab;
+    const double reach = 8.0 * radius, d = (q - h.point).norm();
+    if (d > reach) q = h.point + (q - h.point) * (reach / d);
+    return q;
+  }
+  static double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
+    const Vec3 ab = b - a;
+    const double l2 = ab.squaredNorm();
+    const double u = l2 > 0.0 ? std::clamp((x - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+    return (x - (a + u * ab)).norm();
+  }
+
   struct Pair {
     double d;
     std::size_t track, hit;
@@ -2549,10 +2661,14 @@ struct CutEngine::Impl {
       if (!t.alive) continue;
       const Vec3 at = t.hasPending ? t.pending : t.start;
       const double radius = p.matchRadius + 2.0 * motionOf(t.segment).norm();
+      const Vec3 ahead = crossingAhead(t, at, segs[static_cast<std::size_t>(t.segment)], radius);
       for (std::size_t hi = 0; hi < hits.size(); ++hi) {
         const Hit& h = hits[hi];
         if (h.object != t.object || h.segment != t.segment || h.dir != t.dir) continue;
-        const double d = (h.point - at).norm();
+        double d = distanceToSegment(h.point, at, ahead);
+        if (d > radius && prevSegs.size() == segs.size())
+          d = std::min(d, distanceToSegment(at, crossingBehind(h, prevSegs[static_cast<std::size_t>(t.segment)], radius),
+                                            h.point));
         if (d <= radius) pairs.push_back({d, ti, hi});
       }
     }

@@ -4,6 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
 
 #include "sim/cutting/cutter.h"
 #include "sim/cutting/mesh_checks.h"
@@ -84,6 +89,80 @@ TEST(CutterFine, ThroughCutAlongMeshEdgesFreesItsStrip) {
   EXPECT_NEAR(walls, 2.0 * 5.0 * 24.0, 0.01 * 240.0);
   EXPECT_LE(e.stats().longestFront, 24);
   EXPECT_EQ(e.stats().fillFailures, 0);
+}
+
+}  // namespace
+}  // namespace ld::cutting
+
+namespace ld::cutting {
+namespace {
+
+struct SweepCase {
+  double speed, tiltDeg, tiltAzDeg, entryDeg, y;
+};
+
+// One stroke on a fresh fine slab: enters over the side x = -12 at height y with the
+// stroke direction `entryDeg` off the side's normal (toward +y), blade tilted by tiltDeg
+// toward azimuth tiltAzDeg (0: along the motion). Returns whether the strip came off.
+bool sweepStroke(const SweepCase& c, long* walkFailures) {
+  CutEngine e;
+  e.addObject(fineSlab());
+  const double a = c.entryDeg * M_PI / 180.0;
+  const Vec3 d(std::cos(a), std::sin(a), 0.0);
+  const Vec3 side(-d.y(), d.x(), 0.0);
+  const double t = c.tiltDeg * M_PI / 180.0, az = c.tiltAzDeg * M_PI / 180.0;
+  const Vec3 lean = std::cos(az) * d + std::sin(az) * side;
+  const Vec3 dir = (Vec3(0, 0, -1) * std::cos(t) + lean * std::sin(t)).normalized();
+  const Vec3 entry(-12.0, c.y, 0.0);
+  // Leave the box: the first side the line reaches.
+  double tx = d.x() > 1e-9 ? (12.0 - entry.x()) / d.x() : 1e300;
+  double ty = d.y() > 1e-9 ? (8.0 - entry.y()) / d.y() : (d.y() < -1e-9 ? (-8.0 - entry.y()) / d.y() : 1e300);
+  const double len = std::min(tx, ty);
+  // The blade passes the line's points at z = 0; its tip is at z = -4 (under the slab).
+  const Vec3 toTip = dir * (4.0 / -dir.z());
+  const Vec3 tip0 = entry - 3.0 * d + toTip, tip1 = entry + (len + 3.0) * d + toTip;
+  test::stroke(e, tip0, tip1, dir, c.speed, 1000.0);
+  for (const auto& o : e.objects()) {
+    const auto rep = o.mesh.validate();
+    EXPECT_TRUE(rep.ok()) << rep.message();
+  }
+  if (walkFailures) *walkFailures += e.stats().walkFailures;
+  return e.stats().separations == 1 && e.objects().size() == 2u;
+}
+
+TEST(CutterFine, SweepTiltedAndObliqueStrokes) {
+  if (const char* one = std::getenv("LD_CUT_FINE_CASE")) {
+    SweepCase c{};
+    std::sscanf(one, "%lf,%lf,%lf,%lf,%lf", &c.speed, &c.tiltDeg, &c.tiltAzDeg, &c.entryDeg, &c.y);
+    long wf = 0;
+    const bool ok = sweepStroke(c, &wf);
+    std::cout << (ok ? "freed" : "not freed") << ", walk failures " << wf << "\n";
+    return;
+  }
+  const char* env = std::getenv("LD_CUT_FINE_SWEEP");
+  if (!env) GTEST_SKIP();
+  std::vector<double> tilts{0, 3, 6, 10}, azs{0, 90, 180, 270}, entries{0, 30, 45, 60}, speeds{20, 100, 250};
+  std::vector<double> ys{-5.3, -1.7, 2.15};
+  for (double tilt : tilts)
+    for (double entry : entries) {
+      int freed = 0, total = 0;
+      long wf = 0;
+      for (double az : azs) {
+        if (tilt == 0 && az != 0) continue;
+        for (double sp : speeds)
+          for (double y : ys) {
+            SweepCase c{sp, tilt, az, entry, entry > 40 ? y - 2.0 : y};
+            const bool ok = sweepStroke(c, &wf);
+            freed += ok;
+            ++total;
+            if (!ok && std::string(env) == "2")
+              std::cout << "  miss: speed " << sp << " tilt " << tilt << " az " << az << " entry " << entry << " y "
+                        << c.y << "\n";
+          }
+      }
+      std::cout << "tilt " << tilt << " entry " << entry << ": freed " << freed << "/" << total << ", walk failures "
+                << wf << "\n";
+    }
 }
 
 }  // namespace
