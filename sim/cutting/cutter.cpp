@@ -208,7 +208,7 @@ struct CutEngine::Impl {
   std::vector<collision::TriangleBvh> bvhs;
   std::vector<char> moved;                            // every vertex may have moved
   std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
-  long motionCount = 0;  // object()/verticesMoved calls: tracks re-anchor to the tissue
+  long motionCount = 0;                               // object()/verticesMoved calls: tracks re-anchor to the tissue
   std::vector<collision::SurfaceHit> scratchHits;
   std::vector<Face> scratchFaces;
   int nextId = 0;
@@ -861,7 +861,8 @@ struct CutEngine::Impl {
       if (dbg() && !paired && chain.size() == 1)
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
       if (dbg() && !paired && chain.size() > 1) {
-        std::cerr << "groove chain step " << v << " -> " << N << "(" << pN.transpose() << ") fill " << static_cast<int>(fill) << " chain";
+        std::cerr << "groove chain step " << v << " -> " << N << "(" << pN.transpose() << ") fill "
+                  << static_cast<int>(fill) << " chain";
         for (Vertex x : chain) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
         std::cerr << "\n";
       }
@@ -1055,7 +1056,9 @@ struct CutEngine::Impl {
     std::rotate(loop.begin(), ia, loop.end());
     const auto ib = std::find(loop.begin(), loop.end(), b);
     if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) {
-      if (dbg()) std::cerr << "fillHalvesAt: b not across the loop of " << loop.size() << " (at " << (ib - loop.begin()) << ")\n";
+      if (dbg())
+        std::cerr << "fillHalvesAt: b not across the loop of " << loop.size() << " (at " << (ib - loop.begin())
+                  << ")\n";
       return false;
     }
     // Each half starts after a loop edge, so that its first triangle (on the closing
@@ -1856,6 +1859,35 @@ struct CutEngine::Impl {
     tr.partner = -1;
   }
 
+  // Another track of the hand (a fold of the moving surface the blade grazed, started
+  // and ended beside the cut) may have split an edge of this track's front: the vertex
+  // it put there (a common neighbour of the edge's ends, on the segment between them)
+  // joins the front (the other common neighbours are the walls' far corners, off it).
+  void repairFront(Track& tr) {
+    if (!tr.tip.isValid() || tr.chain.empty()) return;
+    const SurfaceMesh& m = meshOf(tr.object);
+    for (std::size_t i = 0; i < tr.chain.size() && tr.chain.size() < 64; ++i) {
+      const Vertex a = i == 0 ? tr.tip : tr.chain[i - 1], b = tr.chain[i];
+      if (!m.isValid(a) || !m.isValid(b) || m.findEdge(a, b).isValid()) continue;
+      const Vec3 pa = m.position(a), pb = m.position(b);
+      Vertex best;
+      double bestD = std::max(p.snapDistance, 0.25 * (pb - pa).norm());  // (the tissue moves it since)
+      for (Edge e : m.edges(a)) {
+        const Vertex y = m.otherVertex(e, a);
+        if (!m.findEdge(y, b).isValid()) continue;
+        const double d = distanceToSegment(m.position(y), pa, pb);
+        if (d < bestD) {
+          bestD = d;
+          best = y;
+        }
+      }
+      if (!best.isValid()) return;
+      if (dbg()) std::cerr << "repairFront: track " << tr.id << " front through " << best << "\n";
+      tr.chain.insert(tr.chain.begin() + static_cast<std::ptrdiff_t>(i), best);
+      mark(tr, best);
+    }
+  }
+
   // Both layers of a cut-through lost the blade in the same sample: if it left
   // through the side (moving on, not lifted), finish the cut around that side and
   // join the two layers (cut-out).
@@ -1871,6 +1903,7 @@ struct CutEngine::Impl {
       if (B.tip.isValid()) std::cerr << " pb " << meshOf(A.object).position(B.tip).transpose();
       std::cerr << "\n";
     }
+    repairFront(A);
     // The pair's front may end at a wall apex next to B's tip (the layers opened out
     // of step, e.g. the tissue moved between samples): that edge closes the front.
     if (A.tip.isValid() && B.tip.isValid() && !A.chain.empty() && A.chain.back() != B.tip &&
@@ -1928,7 +1961,12 @@ struct CutEngine::Impl {
     std::vector<Edge> cuts;
     for (std::size_t i = 0; i < loop.size(); ++i) {
       const Edge e = m.findEdge(loop[i], loop[(i + 1) % loop.size()]);
-      if (!e.isValid()) return false;
+      if (!e.isValid()) {
+        if (dbg())
+          std::cerr << "close: no edge " << loop[i] << " - " << loop[(i + 1) % loop.size()] << " in a loop of "
+                    << loop.size() << "\n";
+        return false;
+      }
       cuts.push_back(e);
     }
     {
@@ -2105,9 +2143,9 @@ struct CutEngine::Impl {
       Vec3 first = -motion.normalized();
       if ((h0.point - from).norm() > 1e-12) first += (h0.point - from).normalized();
       if (first.norm() < 1e-9) first = -motion;
-      ok = !n2.isZero() && walk(a, g, n2, first.normalized(),
-                                3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius, h0.depth,
-                                h0.depth, &path);
+      ok = !n2.isZero() &&
+           walk(a, g, n2, first.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
+                h0.depth, h0.depth, &path);
       a.pending = h0.point;
       a.pendingDepth = h0.depth;
       a.hasPending = true;
@@ -2394,6 +2432,9 @@ struct CutEngine::Impl {
   }
 
   // Per-sample work lists, kept between samples (no allocation once warm).
+  // Only where the blade meets the face at under 30 degrees (its crossing runs at over
+  // twice the blade's speed) is a track matched along the way (crossingAhead/Behind).
+  static constexpr double kGlancing = 0.5;
   // Where the track's crossing has gone if the surface around it is flat: the new
   // edge meets the plane of the face holding the last point there. A blade nearly
   // parallel to that face (a tilted blade on an object's side face) moves its crossing
@@ -2414,7 +2455,8 @@ struct CutEngine::Impl {
     const Vec3 nf = rawNormal(m, f);
     const Vec3 ab = s.b - s.a;
     const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm()) || std::abs(den) > kGlancing * nf.norm() * ab.norm())
+      return at;
     const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
     Vec3 q = s.a + u * ab;
     const double reach = 8.0 * radius, d = (q - at).norm();
@@ -2430,7 +2472,8 @@ struct CutEngine::Impl {
     const Vec3 nf = rawNormal(m, h.face);
     const Vec3 ab = prev.b - prev.a;
     const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return h.point;
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm()) || std::abs(den) > kGlancing * nf.norm() * ab.norm())
+      return h.point;
     const double u = std::clamp(nf.dot(h.point - prev.a) / den, 0.0, 1.0);
     Vec3 q = prev.a + u * ab;
     const double reach = 8.0 * radius, d = (q - h.point).norm();
@@ -2667,8 +2710,8 @@ struct CutEngine::Impl {
         if (h.object != t.object || h.segment != t.segment || h.dir != t.dir) continue;
         double d = distanceToSegment(h.point, at, ahead);
         if (d > radius && prevSegs.size() == segs.size())
-          d = std::min(d, distanceToSegment(at, crossingBehind(h, prevSegs[static_cast<std::size_t>(t.segment)], radius),
-                                            h.point));
+          d = std::min(d, distanceToSegment(
+                              at, crossingBehind(h, prevSegs[static_cast<std::size_t>(t.segment)], radius), h.point));
         if (d <= radius) pairs.push_back({d, ti, hi});
       }
     }
