@@ -173,7 +173,9 @@ struct Track {
   // object's motion count they were taken at: a moved object moves them too.
   Anchor startAt, pendingAt;
   long anchoredAt = -1;
-  Vertex prevTip;  // the path vertex before tip (the cut runs from it to tip)
+  Vertex prevTip;           // the path vertex before tip (the cut runs from it to tip)
+  Vertex first;             // the path's first vertex (a pierce's: the back end of the slot)
+  double pathLength = 0.0;  // along the path so far (extend)
 };
 
 struct HandState {
@@ -734,11 +736,13 @@ struct CutEngine::Impl {
     mark(tr, N);
     if (!tr.tip.isValid()) {
       tr.tip = N;
+      tr.first = N;
       tr.tipDepth = depthN;
       return true;
     }
     const Vertex v = tr.tip;
     if (N == v) return true;
+    tr.pathLength += (m.position(N) - m.position(v)).norm();
     Track* P = trackById(tr.partner);
     tr.prevTip = v;
     // (assign: the chain keeps its buffer)
@@ -1555,6 +1559,10 @@ struct CutEngine::Impl {
         bool blocked = false;
         N = edgeSnap(m, e, best.q, &tr.visited, &blocked);
         if (blocked) {  // would touch the cut itself
+          // ... unless that is where the walk goes (a cut joining its own start).
+          if (goal.toVertex && (m.vertex(e, 0) == goal.vertex || m.vertex(e, 1) == goal.vertex) &&
+              m.findEdge(v, goal.vertex).isValid())
+            return true;
           walkBlockedAt = e;
           return false;
         }
@@ -1759,9 +1767,13 @@ struct CutEngine::Impl {
       // same side, and the other got there first): nothing is left to cut on this side
       // of it; the track waits for the cut-out.
       const SurfaceMesh& mb = meshOf(tr.object);
+      // Likewise at the cut's own start (a pierce coming round to it): it joins there
+      // when it ends (joinStart).
+      auto at = [&](Vertex x) {
+        return x.isValid() && (mb.vertex(walkBlockedAt, 0) == x || mb.vertex(walkBlockedAt, 1) == x);
+      };
       if (const Track* P = trackById(tr.partner);
-          P && P->tip.isValid() && mb.isValid(walkBlockedAt) &&
-          (mb.vertex(walkBlockedAt, 0) == P->tip || mb.vertex(walkBlockedAt, 1) == P->tip)) {
+          P && P->tip.isValid() && mb.isValid(walkBlockedAt) && (at(P->tip) || at(tr.first) || at(P->first))) {
         if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
         ++stats.holds;
         return;
@@ -1843,6 +1855,8 @@ struct CutEngine::Impl {
   // pair until both layers made their last step (side walls to the end).
   void terminateAll(HandState& hs) {
     for (auto& t : hs.tracks)
+      if (Track* P = trackById(t.partner); t.alive && P) joinStart(t.dir < 0 ? t : *P, t.dir < 0 ? *P : t);
+    for (auto& t : hs.tracks)
       if (t.alive) terminate(t, Vec3::Zero(), Vec3::Zero(), false);
     for (auto& t : hs.tracks)
       if (t.alive) end(t);
@@ -1888,10 +1902,65 @@ struct CutEngine::Impl {
     }
   }
 
+  // A cut-through from a pierce (tunnel) that has come round to its own start: each
+  // layer's path is walked on to its first vertex (the back end of the slot, where
+  // the two layers' first vertices are joined by the slot's last rung), and the loop
+  // tips - starts - the rung - front is cut and closed like a cut-out: what it encloses
+  // comes free.
+  bool joinStart(Track& A, Track& B) {
+    if (!A.alive || !B.alive || A.tunnel || B.tunnel || !A.tip.isValid() || !B.tip.isValid()) return false;
+    SurfaceMesh& m = meshOf(A.object);
+    if (!m.isValid(A.first) || !m.isValid(B.first) || A.first == B.first || A.tip == A.first || B.tip == B.first ||
+        !m.findEdge(A.first, B.first).isValid() || !closedObject(A.object))
+      return false;
+    repairFront(A);
+    if (A.chain.empty() || A.chain.back() != B.tip) return false;
+    const Vec3 pa = m.position(A.tip), pb = m.position(B.tip);
+    // Near the start after going round (a short slot's tip is near its start too).
+    if ((m.position(A.first) - pa).norm() > p.matchRadius || (m.position(B.first) - pb).norm() > p.matchRadius ||
+        std::min(A.pathLength, B.pathLength) < 4.0 * p.matchRadius)
+      return false;
+    if (dbg()) std::cerr << "joinStart tracks " << A.id << "," << B.id << "\n";
+    auto walkTo = [&](Track& T, Vertex goalV, const Vec3& across, std::vector<Vertex>& path) {
+      const Vertex start = T.tip;
+      const Vec3 from = m.position(start), to = m.position(goalV);
+      path.assign({start});
+      const Vec3 n = sweepNormal(from, to, across, across);
+      if (n.isZero()) return false;
+      WalkGoal g;
+      g.toVertex = true;
+      g.vertex = goalV;
+      const bool hadPending = T.hasPending;
+      T.hasPending = false;
+      const bool ok = walk(T, g, n, (to - from).normalized(), 3.0 * (to - from).norm() + 2.0 * p.matchRadius,
+                           T.tipDepth, T.tipDepth, &path);
+      T.tip = start;
+      T.hasPending = hadPending;
+      return ok && T.alive;
+    };
+    std::vector<Vertex> pathA, pathB;
+    if (!walkTo(A, A.first, pb - pa, pathA) || !walkTo(B, B.first, pa - pb, pathB)) {
+      if (dbg()) std::cerr << "joinStart: walk failed\n";
+      return false;
+    }
+    // A.tip ... A.first, B.first ... B.tip, then the front back toward A.tip.
+    std::vector<Vertex> loop = pathA;
+    loop.push_back(A.first);
+    loop.push_back(B.first);
+    loop.insert(loop.end(), pathB.rbegin(), pathB.rend());
+    for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
+    if (!closeLoop(A, loop, false)) return false;
+    checkSeparation.push_back(A.object);
+    end(A);
+    end(B);
+    return true;
+  }
+
   // Both layers of a cut-through lost the blade in the same sample: if it left
   // through the side (moving on, not lifted), finish the cut around that side and
   // join the two layers (cut-out).
   void cutOut(Track& A, Track& B, const Vec3& motion) {
+    if (joinStart(A, B)) return;
     bool done = false;
     if (dbg()) {
       std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << " tips " << A.tip
@@ -1953,11 +2022,17 @@ struct CutEngine::Impl {
   // The cut-out path (A's tip ... a neighbour of B's tip) and the front (A's tip,
   // chain ..., B's tip) form a closed loop: cut along all of it and close both sides.
   bool close(Track& A, Track& B, const std::vector<Vertex>& path) {
-    SurfaceMesh& m = meshOf(A.object);
     std::vector<Vertex> loop = path;
     loop.push_back(B.tip);
     for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
     // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
+    return closeLoop(A, loop, true);
+  }
+
+  // Cuts along a closed loop of edges through both layers and closes both sides with
+  // side walls. `mayOpenRung`: a loop without area may open the front's rung (cut-out).
+  bool closeLoop(Track& A, const std::vector<Vertex>& loop, bool mayOpenRung) {
+    SurfaceMesh& m = meshOf(A.object);
     std::vector<Edge> cuts;
     for (std::size_t i = 0; i < loop.size(); ++i) {
       const Edge e = m.findEdge(loop[i], loop[(i + 1) % loop.size()]);
@@ -1978,7 +2053,7 @@ struct CutEngine::Impl {
       // the piece attached. Only a degenerate loop is refused, unless the tips are on
       // the far side already (snapped onto its edge: the walk runs down the rung).
       if (!(q > 1e-3 * p.snapDistance)) {
-        if (!openRung(A.object, loop)) return false;
+        if (!mayOpenRung || !openRung(A.object, loop)) return false;
         cuts.pop_back();  // gone with its faces
       }
     }
@@ -3025,10 +3100,18 @@ StepResult CutEngine::endStroke(Hand hand) {
   Impl& I = *impl_;
   HandState& hs = I.hands[handIndex(hand)];
   return I.run([&] {
-    CpuTimer timer{I.stats.remeshSeconds};
-    I.terminateAll(hs);
-    hs.hasPrev = false;
-    I.fixPinches();
+    {
+      CpuTimer timer{I.stats.remeshSeconds};
+      I.terminateAll(hs);
+      hs.hasPrev = false;
+      I.fixPinches();
+    }
+    // A cut joined to its own start as the hand lifted may have freed a piece.
+    auto objs = I.checkSeparation;
+    I.checkSeparation.clear();
+    std::sort(objs.begin(), objs.end());
+    objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
+    for (int o : objs) I.separate(o);
   });
 }
 
