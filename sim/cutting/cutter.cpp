@@ -168,6 +168,9 @@ struct Track {
   // that got deeper, or a pierce through both): the paths grow closed until both can
   // open, then openTunnel joins the layers (side walls; the object gets a hole).
   bool tunnel = false;
+  // The walk has reached the wall of an earlier cut (another stroke's slot) and stops
+  // there: when the partner has too, the pair cuts out across that wall.
+  bool atWall = false;
   VertexSet visited;  // path vertices, their copies and this cut's wall apexes
   // start and pending as points of the tissue (set at the end of every sample), and the
   // object's motion count they were taken at: a moved object moves them too.
@@ -1579,6 +1582,9 @@ struct CutEngine::Impl {
       }
       extend(tr, N, depth);
       if (tr.tip != N) return false;
+      // A cut-through stops on the wall of another cut (it would walk down that wall
+      // to the other layer): advance waits there for the partner (onEarlierWall).
+      if (tr.partner >= 0 && !tr.tunnel && onEarlierWall(tr)) return false;
     }
     return false;
   }
@@ -1721,6 +1727,56 @@ struct CutEngine::Impl {
     return true;
   }
 
+  bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
+  // The track's tip is on a wall of another cut (a wall face not of this cut).
+  bool onEarlierWall(const Track& tr) const {
+    if (tr.partner < 0 || !tr.tip.isValid()) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    if (!kind || !m.isValid(tr.tip)) return false;
+    for (Face f : m.faces(tr.tip)) {
+      if (kind[f] == kSurface) continue;
+      for (Vertex x : m.vertices(f))
+        if (!tr.visited.count(x)) return true;
+    }
+    return false;
+  }
+
+  // Both tips on one wall of another cut, across it from each other: the front between
+  // them lies along that wall (in the plane of a wall face at each tip).
+  bool acrossWall(const Track& A, const Track& B) const {
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(A.object))].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const Vec3 d = m.position(B.tip) - m.position(A.tip);
+    if (!kind || !(d.norm() > 0.0) || d.norm() > 4.0 * p.matchRadius) return false;
+    auto along = [&](const Track& T) {
+      for (Face f : m.faces(T.tip)) {
+        if (kind[f] == kSurface) continue;
+        bool own = true;
+        for (Vertex x : m.vertices(f)) own = own && T.visited.count(x);
+        if (!own && std::abs(rawNormal(m, f).normalized().dot(d.normalized())) < 0.25) return true;
+      }
+      return false;
+    };
+    if (!along(A) || !along(B)) return false;
+    // ... and on one wall: B's tip is a corner of A's wall faces' connected neighbours
+    // (wall faces of other cuts, a few hundred at most).
+    std::vector<Face> todo, seen;
+    for (Face f : m.faces(A.tip))
+      if (kind[f] != kSurface) todo.push_back(f);
+    while (!todo.empty() && seen.size() < 256) {
+      const Face f = todo.back();
+      todo.pop_back();
+      if (std::find(seen.begin(), seen.end(), f) != seen.end()) continue;
+      seen.push_back(f);
+      if (m.localIndex(f, B.tip) >= 0) return true;
+      for (Vertex x : m.vertices(f))
+        for (Face g : m.faces(x))
+          if (kind[g] != kSurface && std::find(seen.begin(), seen.end(), g) == seen.end()) todo.push_back(g);
+    }
+    return false;
+  }
+
   void advance(Track& tr, Hit& h, const Vec3& bladeDir) {
     SurfaceMesh& m0 = meshOf(tr.object);
     tr.pendingFace = Face();
@@ -1776,6 +1832,25 @@ struct CutEngine::Impl {
           P && P->tip.isValid() && mb.isValid(walkBlockedAt) && (at(P->tip) || at(tr.first) || at(P->first))) {
         if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
         ++stats.holds;
+        return;
+      }
+    }
+    if (!ok && !tr.tunnel && onEarlierWall(tr) &&
+        (h.point - meshOf(tr.object).position(tr.tip)).norm() <= p.matchRadius) {
+      // An earlier cut's wall ahead (its slot is closed: the walls coincide): wait
+      // there for the other layer; once both are on it, cut out across it.
+      if (dbg()) std::cerr << "advance: track " << tr.id << " at an earlier cut's wall\n";
+      tr.atWall = true;
+      Track* P = trackById(tr.partner);
+      if (!P || !P->atWall) {
+        ++stats.holds;
+        return;
+      }
+      if (acrossWall(tr, *P)) {
+        SurfaceMesh& mw = meshOf(tr.object);
+        wallCutOut = true;
+        cutOut(tr, *P, h.point - mw.position(tr.tip));
+        wallCutOut = false;
         return;
       }
     }
@@ -2026,7 +2101,7 @@ struct CutEngine::Impl {
     loop.push_back(B.tip);
     for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
     // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
-    return closeLoop(A, loop, true);
+    return closeLoop(A, loop, !wallCutOut);
   }
 
   // Cuts along a closed loop of edges through both layers and closes both sides with
@@ -2052,6 +2127,7 @@ struct CutEngine::Impl {
       // rim that is a thin crescent whatever the triangulation, and refusing it leaves
       // the piece attached. Only a degenerate loop is refused, unless the tips are on
       // the far side already (snapped onto its edge: the walk runs down the rung).
+      if (wallCutOut && !(q >= sliverHeight())) return false;
       if (!(q > 1e-3 * p.snapDistance)) {
         if (!mayOpenRung || !openRung(A.object, loop)) return false;
         cuts.pop_back();  // gone with its faces

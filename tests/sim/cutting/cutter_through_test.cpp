@@ -250,3 +250,28 @@ TEST(CutterThrough, CircleFromAPierceFreesTheDiscWhenItClosesOnItsStart) {
 
 }  // namespace
 }  // namespace ld::cutting
+
+namespace ld::cutting {
+namespace {
+
+// A slot from the side that ends in the middle, then a second stroke from the same side
+// that turns and crosses it: the piece between the two cuts comes free where the second
+// meets the first (its walk goes round the slot's wall as round a side of the object).
+TEST(CutterThrough, SecondStrokeCrossingAnEarlierSlotFreesThePieceBetween) {
+  CutEngine e;
+  e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}));
+  test::polyStroke(e, {Vec3(-1, 3.3, -1), Vec3(7.3, 3.3, -1)}, Vec3(0, 0, -1), 20.0, 1000.0, soundEverySample());
+  ASSERT_EQ(e.objects().size(), 1u);
+  test::polyStroke(e, {Vec3(-1, 7.3, -1), Vec3(5.3, 7.3, -1), Vec3(5.3, 1.5, -1)}, Vec3(0, 0, -1), 20.0, 1000.0,
+                   soundEverySample());
+  ASSERT_EQ(e.objects().size(), 2u) << "the piece between the cuts stays attached";
+  const bool first = e.objects()[0].mesh.area() < e.objects()[1].mesh.area();
+  const auto& piece = e.objects()[first ? 0 : 1].mesh;
+  // 5.3 x 4 x 2: top and bottom, four sides.
+  const double want = 2 * 5.3 * 4.0 + 2 * (5.3 + 4.0) * 2.0;
+  EXPECT_NEAR(piece.area(), want, 0.02 * want);
+  EXPECT_EQ(test::eulerCharacteristic(piece), 2);
+}
+
+}  // namespace
+}  // namespace ld::cutting
