@@ -1948,35 +1948,6 @@ struct CutEngine::Impl {
     tr.partner = -1;
   }
 
-  // Another track of the hand (a fold of the moving surface the blade grazed, started
-  // and ended beside the cut) may have split an edge of this track's front: the vertex
-  // it put there (a common neighbour of the edge's ends, on the segment between them)
-  // joins the front (the other common neighbours are the walls' far corners, off it).
-  void repairFront(Track& tr) {
-    if (!tr.tip.isValid() || tr.chain.empty()) return;
-    const SurfaceMesh& m = meshOf(tr.object);
-    for (std::size_t i = 0; i < tr.chain.size() && tr.chain.size() < 64; ++i) {
-      const Vertex a = i == 0 ? tr.tip : tr.chain[i - 1], b = tr.chain[i];
-      if (!m.isValid(a) || !m.isValid(b) || m.findEdge(a, b).isValid()) continue;
-      const Vec3 pa = m.position(a), pb = m.position(b);
-      Vertex best;
-      double bestD = std::max(p.snapDistance, 0.25 * (pb - pa).norm());  // (the tissue moves it since)
-      for (Edge e : m.edges(a)) {
-        const Vertex y = m.otherVertex(e, a);
-        if (!m.findEdge(y, b).isValid()) continue;
-        const double d = distanceToSegment(m.position(y), pa, pb);
-        if (d < bestD) {
-          bestD = d;
-          best = y;
-        }
-      }
-      if (!best.isValid()) return;
-      if (dbg()) std::cerr << "repairFront: track " << tr.id << " front through " << best << "\n";
-      tr.chain.insert(tr.chain.begin() + static_cast<std::ptrdiff_t>(i), best);
-      mark(tr, best);
-    }
-  }
-
   // A cut-through from a pierce (tunnel) that has come round to its own start: each
   // layer's path is walked on to its first vertex (the back end of the slot, where
   // the two layers' first vertices are joined by the slot's last rung), and the loop
@@ -1988,7 +1959,6 @@ struct CutEngine::Impl {
     if (!m.isValid(A.first) || !m.isValid(B.first) || A.first == B.first || A.tip == A.first || B.tip == B.first ||
         !m.findEdge(A.first, B.first).isValid() || !closedObject(A.object))
       return false;
-    repairFront(A);
     if (A.chain.empty() || A.chain.back() != B.tip) return false;
     const Vec3 pa = m.position(A.tip), pb = m.position(B.tip);
     // Near the start after going round (a short slot's tip is near its start too).
@@ -2047,7 +2017,6 @@ struct CutEngine::Impl {
       if (B.tip.isValid()) std::cerr << " pb " << meshOf(A.object).position(B.tip).transpose();
       std::cerr << "\n";
     }
-    repairFront(A);
     // The pair's front may end at a wall apex next to B's tip (the layers opened out
     // of step, e.g. the tissue moved between samples): that edge closes the front.
     if (A.tip.isValid() && B.tip.isValid() && !A.chain.empty() && A.chain.back() != B.tip &&
@@ -2583,9 +2552,6 @@ struct CutEngine::Impl {
   }
 
   // Per-sample work lists, kept between samples (no allocation once warm).
-  // Only where the blade meets the face at under 30 degrees (its crossing runs at over
-  // twice the blade's speed) is a track matched along the way (crossingAhead/Behind).
-  static constexpr double kGlancing = 0.5;
   // Where the track's crossing has gone if the surface around it is flat: the new
   // edge meets the plane of the face holding the last point there. A blade nearly
   // parallel to that face (a tilted blade on an object's side face) moves its crossing
@@ -2606,8 +2572,7 @@ struct CutEngine::Impl {
     const Vec3 nf = rawNormal(m, f);
     const Vec3 ab = s.b - s.a;
     const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm()) || std::abs(den) > kGlancing * nf.norm() * ab.norm())
-      return at;
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
     const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
     Vec3 q = s.a + u * ab;
     const double reach = 8.0 * radius, d = (q - at).norm();
@@ -2623,8 +2588,7 @@ struct CutEngine::Impl {
     const Vec3 nf = rawNormal(m, h.face);
     const Vec3 ab = prev.b - prev.a;
     const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm()) || std::abs(den) > kGlancing * nf.norm() * ab.norm())
-      return h.point;
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return h.point;
     const double u = std::clamp(nf.dot(h.point - prev.a) / den, 0.0, 1.0);
     Vec3 q = prev.a + u * ab;
     const double reach = 8.0 * radius, d = (q - h.point).norm();
