@@ -460,7 +460,7 @@ TEST(CutterProperty, RandomStrokesOnMovingTissue) {
             << separatedStill << "), walk failures " << failures << ", samples held behind a moved tip " << holds
             << "\n";
   // Measured with the blade tilted up to 10 degrees (scale 1 / 2 / 4: 32 / 64 / 128
-  // strokes): freed 30 / 61 / 123 with physics, 32 / 64 / 127 without, no walk failures.
+  // strokes): freed 30 / 61 / 124 with physics, 32 / 64 / 127 without, no walk failures.
   // Before tilted slide-ins and cut-outs were fixed: 28 / 56 / 116, 30 / 59 / 112, walk
   // failures 2 / 4 / 6 (cutting README). With start/pending kept as world points instead
   // of tissue points (older still), scale 1 saw 8 walk failures.
