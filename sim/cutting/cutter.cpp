@@ -2646,8 +2646,9 @@ struct CutEngine::Impl {
   // Faces the flips' thinness test has passed, per object: a face is tested again only
   // once an edit re-set it (the journal lists it) or the caller moved vertices
   // (motionCount); the cutter itself moves a vertex only when a groove bottom slides
-  // (slideBottom un-marks its faces), so a face that passed keeps its shape until then. Faces found thin are not
-  // remembered (a later flip may fix them). The result is the one of testing every face around every edited vertex.
+  // (slideBottom un-marks its faces), so a face that passed keeps its shape until
+  // then. Faces found thin are not remembered (a later flip may fix them). The result
+  // is the one of testing every face around every edited vertex.
   struct ThinCache {
     int obj = -1;
     std::uint64_t layout = 0;
@@ -2757,24 +2758,19 @@ struct CutEngine::Impl {
   void improveAround(int obj, Vertex v, ThinCache& ok) {
     SurfaceMesh& m = meshOf(obj);
     const double floor = 0.5 * p.snapDistance;
-    const std::uint32_t* okGen = nullptr;
-    std::size_t okSize = 0;
     for (int round = 0; round < 4; ++round) {
       // The faces around v not passed yet, in the order of v's edges (both sides):
-      // most have passed, and this loop calls nothing, so it stays tight. Then the
+      // most have passed, so this loop stays tight (no test, no flip). Then the
       // tests in that order, as one loop over edges and sides would make them (a face
       // listed twice is passed or, thin, tried again with the same result).
       const auto& es = m.edges(v);
       thinTodo.resize(2 * es.size());
       Face* todo = thinTodo.data();
       std::size_t n = 0;
-      okGen = ok.okGen.data();
-      okSize = ok.okGen.size();
-      const std::uint32_t gen = ok.gen;
       for (Edge ev : es)
         for (int s = 0; s < 2; ++s) {
           const Face f = m.face(ev, s);
-          if (f.isValid() && !(f.idx() < okSize && okGen[f.idx()] == gen)) todo[n++] = f;
+          if (f.isValid() && !ok.passed(f)) todo[n++] = f;
         }
       bool flipped = false;
       for (std::size_t i = 0; i < n && !flipped; ++i) {

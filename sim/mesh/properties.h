@@ -179,7 +179,7 @@ class PropertyContainer {
   // Grows every array together and geometrically, so that an edit adding one element
   // reallocates all arrays at once, rarely, instead of each at its own moment.
   void pushBack() {
-    if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
+    roomForOne();
     for (auto& a : arrays_) a->pushBack();
     ++size_;
   }
@@ -198,7 +198,7 @@ class PropertyContainer {
   }
   // A new last element, a copy of `from`.
   void pushBackCopy(std::size_t from) {
-    if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
+    roomForOne();
     for (auto& a : arrays_) a->pushBackCopy(from);
     ++size_;
   }
@@ -221,6 +221,10 @@ class PropertyContainer {
   [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
  private:
+  // Grows every array together and geometrically before one more element (pushBack).
+  void roomForOne() {
+    if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
+  }
   BasePropertyArray* find(const std::string& name) const {
     for (const auto& a : arrays_)
       if (a->name() == name) return a.get();

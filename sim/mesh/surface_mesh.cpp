@@ -185,25 +185,29 @@ void SurfaceMesh::addEdgeToVertex(Vertex v, Edge e) {
 
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
   eprops_.pushBack();
-  Edge e(edgesSize() - 1);
-  everts_[e] = {a, b};
-  efaces_[e] = {Face(), Face()};
-  addEdgeToVertex(a, e);
-  addEdgeToVertex(b, e);
-  journalE_.push_back(e);
-  return e;
+  return linkNewEdge(a, b);
 }
 
 Face SurfaceMesh::newFace() {
   fprops_.pushBack();
-  journalF_.push_back(Face(facesSize() - 1));
-  return Face(facesSize() - 1);
+  return journalNewFace();
 }
 
 // A new edge (a, b) with the properties of `from` (one pass over the property arrays).
 Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
   eprops_.pushBackCopy(from.idx());
-  Edge e(edgesSize() - 1);
+  return linkNewEdge(a, b);
+}
+
+// A new face with the properties of `from` (its corners and sides are set by attachFace).
+Face SurfaceMesh::newFaceCopy(Face from) {
+  fprops_.pushBackCopy(from.idx());
+  return journalNewFace();
+}
+
+// The last edge (just pushed) as (a, b), without faces, listed at both ends.
+Edge SurfaceMesh::linkNewEdge(Vertex a, Vertex b) {
+  const Edge e(edgesSize() - 1);
   everts_[e] = {a, b};
   efaces_[e] = {Face(), Face()};
   addEdgeToVertex(a, e);
@@ -212,11 +216,10 @@ Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
   return e;
 }
 
-// A new face with the properties of `from` (its corners and sides are set by attachFace).
-Face SurfaceMesh::newFaceCopy(Face from) {
-  fprops_.pushBackCopy(from.idx());
-  journalF_.push_back(Face(facesSize() - 1));
-  return Face(facesSize() - 1);
+Face SurfaceMesh::journalNewFace() {
+  const Face f(facesSize() - 1);
+  journalF_.push_back(f);
+  return f;
 }
 
 bool SurfaceMesh::runsForward(Face f, Edge e) const {

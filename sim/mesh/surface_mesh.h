@@ -348,6 +348,8 @@ class SurfaceMesh {
   Face newFace();
   Edge newEdgeCopy(Edge from, Vertex a, Vertex b);
   Face newFaceCopy(Face from);
+  Edge linkNewEdge(Vertex a, Vertex b);  // the tail of newEdge / newEdgeCopy
+  Face journalNewFace();
   void addEdgeToVertex(Vertex v, Edge e);
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
   // empty) and give it new vertices, finding or creating its edges (`known`: the

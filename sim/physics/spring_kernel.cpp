@@ -32,13 +32,13 @@ namespace {
 constexpr std::size_t kAhead = 4;
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
-  const double* stiffness = c.energy ? c.stiffness : c.mass;  // unread without the energy
   if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
   const std::size_t t = kGroup * (grp + kAhead);
   for (const double* a : {c.x0, c.v0, c.home, c.ext})
     for (std::size_t o = 0; o < 3 * kGroup; o += 8) __builtin_prefetch(a + 3 * t + o);
-  for (const double* a : {c.mass, stiffness})
-    for (std::size_t o = 0; o < kGroup; o += 8) __builtin_prefetch(a + t + o);
+  for (std::size_t o = 0; o < kGroup; o += 8) __builtin_prefetch(c.mass + t + o);
+  if (c.energy)  // the stiffness is unread without the energy
+    for (std::size_t o = 0; o < kGroup; o += 8) __builtin_prefetch(c.stiffness + t + o);
 }
 #else
 inline void prefetchGroup(const BlockStep&, std::size_t) {}
