@@ -287,12 +287,22 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
   check(b, "addFace");
   check(c, "addFace");
   if (a == b || b == c || c == a) return Face();
+  return addFaceOnSides(a, b, c, {findEdge(a, b), findEdge(b, c), findEdge(c, a)});
+}
+
+Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& sides) {
+  check(a, "addFace");
+  check(b, "addFace");
+  check(c, "addFace");
+  if (a == b || b == c || c == a) return Face();
+  return addFaceOnSides(a, b, c, sides);
+}
+
+Face SurfaceMesh::addFaceOnSides(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& found) {
   const std::array<Vertex, 3> v{a, b, c};
-  std::array<Edge, 3> found{};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
-    Edge e = findEdge(x, y);
-    found[i] = e;
+    const Edge e = found[i];
     if (!e.isValid()) continue;
     const auto& ef = efaces_[e];
     if (ef[1].isValid()) return Face();  // would be a third face
