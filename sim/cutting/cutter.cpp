@@ -273,6 +273,17 @@ struct CutEngine::Impl {
     physics::redistributeMass(m, list, p.tissue);
   }
 
+  // touch(obj, {x}) for each x in turn (the tissue hooks per vertex, as before), the
+  // object looked up once.
+  void touchEach(int obj, std::span<const Vertex> vs) {
+    if (tissue(obj)) {
+      for (Vertex v : vs) touch(obj, {v});
+      return;
+    }
+    for (Vertex v : vs)
+      if (v.isValid()) dirty.emplace_back(obj, v);
+  }
+
   // ---- geometry helpers --------------------------------------------------------------
   // SurfaceMesh::faces(v) into a kept vector (the walk asks for every step).
   static void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
@@ -564,7 +575,21 @@ struct CutEngine::Impl {
   // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in order of their first
   // face. Returns the number of groups.
   int fanLabels(const SurfaceMesh& m, Vertex x, std::span<const Edge> cuts) {
-    m.faces(x, fanFaces);
+    // The faces in SurfaceMesh::faces order, and per edge side the face's place in that
+    // list (found while listing it: no second search per edge).
+    const auto& es = m.edges(x);
+    fanFaces.clear();
+    fanSide.resize(2 * es.size());
+    for (std::size_t i = 0; i < es.size(); ++i)
+      for (int k = 0; k < 2; ++k) {
+        const Face f = m.face(es[i], k);
+        int at = -1;
+        if (f.isValid()) {
+          at = static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
+          if (at == static_cast<int>(fanFaces.size())) fanFaces.push_back(f);
+        }
+        fanSide[2 * i + static_cast<std::size_t>(k)] = at;
+      }
     const std::size_t n = fanFaces.size();
     fanParent.resize(n);
     fanLabel.resize(n);
@@ -573,14 +598,11 @@ struct CutEngine::Impl {
       while (fanParent[static_cast<std::size_t>(i)] != i) i = fanParent[static_cast<std::size_t>(i)];
       return i;
     };
-    auto index = [&](Face f) {
-      return static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
-    };
-    for (Edge e : m.edges(x)) {
-      if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
-      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
-      if (!f0.isValid() || !f1.isValid()) continue;
-      const int r0 = find(index(f0)), r1 = find(index(f1));
+    for (std::size_t i = 0; i < es.size(); ++i) {
+      const int i0 = fanSide[2 * i], i1 = fanSide[2 * i + 1];
+      if (i0 < 0 || i1 < 0) continue;
+      if (std::find(cuts.begin(), cuts.end(), es[i]) != cuts.end()) continue;
+      const int r0 = find(i0), r1 = find(i1);
       if (r0 != r1) fanParent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
     }
     // A root is the smallest index of its group, so groups are met in fanGroups' order.
@@ -672,15 +694,18 @@ struct CutEngine::Impl {
   static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
     // A face running a -> b already rules out (a, b, c): try the other orientation first
     // (the same result, without the failed attempt).
+    // The three sides are looked up once for both orientations.
+    if (!m.isValid(a) || !m.isValid(b) || !m.isValid(c)) return m.addFace(a, b, c);  // throws
+    const Edge ab = m.findEdge(a, b), bc = m.findEdge(b, c), ca = m.findEdge(c, a);
     bool flip = false;
-    if (const Edge ab = m.findEdge(a, b); ab.isValid()) {
+    if (ab.isValid()) {
       const auto& fv = m.vertices(m.face(ab, 0));
       const int i = m.localIndex(m.face(ab, 0), a);
       flip = i >= 0 && fv[static_cast<std::size_t>((i + 1) % 3)] == b;
     }
-    if (flip) std::swap(b, c);
-    Face f = m.addFace(a, b, c);
-    if (!f.isValid() && !flip) f = m.addFace(a, c, b);
+    // (a, b, c) runs ab, bc, ca; (a, c, b) runs ca, bc, ab.
+    Face f = flip ? m.addFace(a, c, b, {ca, bc, ab}) : m.addFace(a, b, c, {ab, bc, ca});
+    if (!f.isValid() && !flip) f = m.addFace(a, c, b, {ca, bc, ab});
     if (f.isValid()) kinds[f] = kind;
     return f;
   }
@@ -914,7 +939,12 @@ struct CutEngine::Impl {
     const std::size_t facesBefore = m.facesSize();
     const std::array<Edge, 2> cutsAtV{eOut, eFront};
     Vertex vn;
-    if (fanLabels(m, v, cutsAtV) == 2) vn = m.splitVertex(v, fanOf(1));
+    if (fanLabels(m, v, cutsAtV) == 2) {
+      const std::size_t j0 = m.editedFaces().size();
+      vn = m.splitVertex(v, fanOf(1));
+      // Its faces only change a corner for a copy at the same place: the same shapes.
+      if (vn.isValid()) keptShapes.push_back({tr.object, m.layoutVersion(), j0, m.editedFaces().size()});
+    }
     if (!vn.isValid()) {
       // Cannot open here (should not happen on a manifold mesh): leave the slit closed.
       advanceTo({v});
@@ -985,7 +1015,7 @@ struct CutEngine::Impl {
           }
     }
     const std::size_t dirtyBefore = dirty.size();
-    for (Vertex x : touched) touch(tr.object, {x});
+    touchEach(tr.object, touched);
     const long unpinchedBefore = stats.unpinched;
     for (Vertex x : touched) unpinch(tr.object, x);
     // Checked here and nothing split: the safety net need not walk these fans again
@@ -2603,7 +2633,7 @@ struct CutEngine::Impl {
   std::vector<Face> walkFaces;
   // Fan splits (fanLabels, splitByGroups) and extend's vertex list.
   std::vector<Face> fanFaces, fanPick;
-  std::vector<int> fanParent, fanLabel;
+  std::vector<int> fanParent, fanLabel, fanSide;
   std::vector<std::vector<Face>> fanGroupsBuf;
   std::vector<Vertex> extendTouched;
 
@@ -2663,9 +2693,19 @@ struct CutEngine::Impl {
     }
   };
   std::vector<ThinCache> thinCaches;
+  // Journal entries (faces [from, to) of an object's journal at `layout`) that re-set
+  // faces without changing their shape (extend's splitVertex: a corner becomes its copy
+  // at the same place): they keep what the thinness test found.
+  struct KeptShape {
+    int obj;
+    std::uint64_t layout;
+    std::size_t from, to;
+  };
+  std::vector<KeptShape> keptShapes;
   ThinCache& thinCacheFor(int obj) {
     const SurfaceMesh& m = meshOf(obj);
     std::erase_if(thinCaches, [&](const ThinCache& c) { return indexOf(c.obj) < 0; });
+    std::erase_if(keptShapes, [&](const KeptShape& k) { return indexOf(k.obj) < 0; });
     auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
     ThinCache& c = it != thinCaches.end() ? *it : thinCaches.emplace_back();
     const auto journal = m.editedFaces();
@@ -2678,9 +2718,20 @@ struct CutEngine::Impl {
         c.gen = 1;
       }
     } else {
-      for (Face f : journal.subspan(c.journalF))
-        if (f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+      // The journal since the last call, less the kept shapes (recorded in edit order).
+      std::size_t at = c.journalF;
+      auto forget = [&](std::size_t to) {
+        for (; at < to; ++at)
+          if (const Face f = journal[at]; f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+      };
+      for (const KeptShape& k : keptShapes) {
+        if (k.obj != obj || k.layout != c.layout || k.from < at || k.to > journal.size()) continue;
+        forget(k.from);
+        at = k.to;
+      }
+      forget(journal.size());
     }
+    std::erase_if(keptShapes, [&](const KeptShape& k) { return k.obj == obj; });
     c.journalF = journal.size();
     return c;
   }
