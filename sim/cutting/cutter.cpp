@@ -594,8 +594,14 @@ struct CutEngine::Impl {
     fanParent.resize(n);
     fanLabel.resize(n);
     std::iota(fanParent.begin(), fanParent.end(), 0);
+    // Roots are the smallest index of their group (a parent is always smaller); path
+    // halving shortens the chains without changing any root.
     auto find = [&](int i) {
-      while (fanParent[static_cast<std::size_t>(i)] != i) i = fanParent[static_cast<std::size_t>(i)];
+      while (fanParent[static_cast<std::size_t>(i)] != i) {
+        const int up = fanParent[static_cast<std::size_t>(fanParent[static_cast<std::size_t>(i)])];
+        fanParent[static_cast<std::size_t>(i)] = up;
+        i = up;
+      }
       return i;
     };
     for (std::size_t i = 0; i < es.size(); ++i) {
@@ -605,11 +611,12 @@ struct CutEngine::Impl {
       const int r0 = find(i0), r1 = find(i1);
       if (r0 != r1) fanParent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
     }
-    // A root is the smallest index of its group, so groups are met in fanGroups' order.
+    // A root is the smallest index of its group, so groups are met in fanGroups' order;
+    // a parent comes before its child, so its label is known (no search to the root).
     int count = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      const int r = find(static_cast<int>(i));
-      fanLabel[i] = r == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(r)];
+      const int up = fanParent[i];
+      fanLabel[i] = up == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(up)];
     }
     return count;
   }
@@ -648,6 +655,31 @@ struct CutEngine::Impl {
   static bool singleFan(const SurfaceMesh& m, Vertex x) {
     const auto& es = m.edges(x);
     if (es.empty()) return true;
+    // The usual case first: the walk from the first edge comes back to it after one face
+    // per edge. Then every edge at x was crossed (the faces and edges at x form paths and
+    // cycles, which a walk that never turns back follows without meeting an edge twice),
+    // so none is a boundary and the faces are one closed fan: the walk below would start
+    // there too and count them all. Otherwise that walk decides.
+    {
+      const Edge start = es.front();
+      Face f = m.face(start, 0);
+      Edge e = start;
+      std::size_t count = 0;
+      while (f.isValid() && count < es.size()) {
+        ++count;
+        const int k = m.localIndex(f, x);
+        if (k < 0) break;
+        const auto& fe = m.edges(f);
+        const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
+        const Edge next = out == e ? in : out;
+        if (next == start) {
+          if (count == es.size()) return true;
+          break;
+        }
+        e = next;
+        f = m.otherFace(next, f);
+      }
+    }
     int twice = 0;
     Edge start = es.front();
     bool startOnBoundary = m.isBoundary(start);
@@ -689,7 +721,29 @@ struct CutEngine::Impl {
   }
 
   // The face kind property, looked up once per edit instead of once per triangle.
-  static mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) { return m.faceProperty<int>(kFaceKindProp, kSurface); }
+  // And kept for the rest of the call (run() forgets them): the same mesh at the same
+  // layout has the same property arrays (the engine adds properties, never removes one).
+  struct PropertyViews {
+    const SurfaceMesh* mesh = nullptr;
+    std::uint64_t layout = 0;
+    mesh::FaceProperty<int> kinds;
+    mesh::VertexProperty<std::uint8_t> apex;
+  };
+  PropertyViews views;
+  PropertyViews& viewsOf(SurfaceMesh& m) {
+    if (views.mesh != &m || views.layout != m.layoutVersion()) views = PropertyViews{&m, m.layoutVersion(), {}, {}};
+    return views;
+  }
+  mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) {
+    PropertyViews& w = viewsOf(m);
+    if (!w.kinds) w.kinds = m.faceProperty<int>(kFaceKindProp, kSurface);
+    return w.kinds;
+  }
+  mesh::VertexProperty<std::uint8_t> apexOf(SurfaceMesh& m) {
+    PropertyViews& w = viewsOf(m);
+    if (!w.apex) w.apex = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    return w.apex;
+  }
 
   static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
     // A face running a -> b already rules out (a, b, c): try the other orientation first
@@ -745,7 +799,7 @@ struct CutEngine::Impl {
       added[nAdded++] = f;
     }
     if (nAdded == 4) {
-      m.vertexProperty<std::uint8_t>(kApexProp, 0)[B] = 1;
+      apexOf(m)[B] = 1;
       if (tissue(obj)) {
         physics::initVertexCopy(m, B, n, p.tissue);
         auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
@@ -812,7 +866,7 @@ struct CutEngine::Impl {
     }
     const bool walls = closedObject(tr.object);
     const bool paired = P != nullptr;
-    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    const auto apexProp = apexOf(m);
     const double thr = 0.5 * p.snapDistance;
     // How to close the opening, decided on the geometry before anything changes:
     //  Fan  - triangles from N over the front (v, chain...): two for a one-vertex front;
@@ -1210,7 +1264,7 @@ struct CutEngine::Impl {
     const Vec3 pv = m.position(v), pN = m.position(N), po = m.position(o);
     // The first bottom vertex of a groove stays (its walls ramp up to where the cut
     // began: moved on, the groove would start shallower than the blade cut it).
-    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    const auto apexProp = apexOf(m);
     bool follows = false;
     for (Edge e : m.edges(o)) follows = follows || apexProp[m.otherVertex(e, o)] != 0;
     if (!follows) return -1.0;
@@ -1357,12 +1411,16 @@ struct CutEngine::Impl {
     slidPending.emplace_back(obj, o);  // its boxes are refitted at the next sync
     // Its faces changed shape: the flips' thinness test must see them again.
     for (ThinCache& c : thinCaches)
-      if (c.obj == obj)
+      if (c.obj == obj) {
         for (Edge e : m.edges(o))
           for (int side = 0; side < 2; ++side) {
             const Face f = m.face(e, side);
             if (f.isValid() && f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
           }
+        // (their corners: o and its neighbours)
+        c.unsettle(o);
+        for (Edge e : m.edges(o)) c.unsettle(m.otherVertex(e, o));
+      }
   }
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
@@ -1740,17 +1798,20 @@ struct CutEngine::Impl {
       } best;
       bool found = false;
       const double eps = 1e-10 * scaleOf(pv);
+      // Each corner's visited test once per face (own(f): all three are on the cut).
+      const bool tipOnCut = tr.visited.count(v);
       for (Face f : around) {
-        if (own(f)) continue;
+        const auto& fv = m.vertices(f);
+        const int k = m.localIndex(f, v);
+        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
+        const bool onA = tr.visited.count(a), onB = tr.visited.count(b);
+        if (k >= 0 ? tipOnCut && onA && onB : own(f)) continue;
         Vec3 nf = rawNormal(m, f);
         const double nl = nf.norm();
         if (!(nl > 0.0)) continue;
         nf /= nl;
         if (std::abs(nf.dot(n)) > 1.0 - 1e-9) continue;  // in the sweep plane itself
         const Vec3 tf = n.cross(nf);
-        const auto& fv = m.vertices(f);
-        const int k = m.localIndex(f, v);
-        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
         const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
         auto consider = [&](bool isV, Vertex vx, const Vec3& q) {
           const Vec3 d = q - pv;
@@ -1770,9 +1831,9 @@ struct CutEngine::Impl {
           }
         };
         const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
-        if (za && !tr.visited.count(a)) consider(true, a, m.position(a));
-        if (zb && !tr.visited.count(b)) consider(true, b, m.position(b));
-        if (!za && !zb && ((sa > 0) != (sb > 0)) && !(tr.visited.count(a) && tr.visited.count(b))) {
+        if (za && !onA) consider(true, a, m.position(a));
+        if (zb && !onB) consider(true, b, m.position(b));
+        if (!za && !zb && ((sa > 0) != (sb > 0)) && !(onA && onB)) {
           const Vec3 q = m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb));
           consider(false, Vertex(), q);
         }
@@ -2679,17 +2740,33 @@ struct CutEngine::Impl {
   // (slideBottom un-marks its faces), so a face that passed keeps its shape until
   // then. Faces found thin are not remembered (a later flip may fix them). The result
   // is the one of testing every face around every edited vertex.
+  // A vertex is settled when every face around it has passed; the faces the journal
+  // lists are tested when the cache is brought up to date (thinCacheFor), and a thin one
+  // unsettles its corners (so do a slide and a flip), so that around a settled vertex
+  // every face has passed and improveAround need not walk its (often long: a groove's
+  // bottom vertex) edge list. Testing a face earlier than improveAround would does not
+  // change what happens: passing depends on the face's shape alone, and no flip is made
+  // there; the flips are tried in the same order as before.
   struct ThinCache {
     int obj = -1;
     std::uint64_t layout = 0;
     long motion = -1;
     std::size_t journalF = 0;
     std::uint32_t gen = 0;
-    std::vector<std::uint32_t> okGen;  // per face index: gen when it passed
+    std::vector<std::uint32_t> okGen;       // per face index: gen when it passed
+    std::vector<std::uint32_t> settledGen;  // per vertex index: gen when it was settled
     [[nodiscard]] bool passed(Face f) const { return f.idx() < okGen.size() && okGen[f.idx()] == gen; }
     void pass(Face f) {
       if (f.idx() >= okGen.size()) okGen.resize(f.idx() + 1024, 0);
       okGen[f.idx()] = gen;
+    }
+    [[nodiscard]] bool settled(Vertex v) const { return v.idx() < settledGen.size() && settledGen[v.idx()] == gen; }
+    void settle(Vertex v) {
+      if (v.idx() >= settledGen.size()) settledGen.resize(v.idx() + 1024, 0);
+      settledGen[v.idx()] = gen;
+    }
+    void unsettle(Vertex v) {
+      if (v.isValid() && v.idx() < settledGen.size()) settledGen[v.idx()] = 0;
     }
   };
   std::vector<ThinCache> thinCaches;
@@ -2715,6 +2792,7 @@ struct CutEngine::Impl {
       c.motion = motionCount;
       if (++c.gen == 0) {  // wrapped: forget every mark
         std::fill(c.okGen.begin(), c.okGen.end(), 0u);
+        std::fill(c.settledGen.begin(), c.settledGen.end(), 0u);
         c.gen = 1;
       }
     } else {
@@ -2730,6 +2808,16 @@ struct CutEngine::Impl {
         at = k.to;
       }
       forget(journal.size());
+      // The listed faces tested now (see ThinCache): a thin one unsettles its corners.
+      const double floor = 0.5 * p.snapDistance;
+      for (std::size_t i = c.journalF; i < journal.size(); ++i) {
+        const Face f = journal[i];
+        if (m.isDeleted(f) || c.passed(f)) continue;
+        if (!thinnerThan(m, f, floor))
+          c.pass(f);
+        else
+          for (Vertex x : m.vertices(f)) c.unsettle(x);
+      }
     }
     std::erase_if(keptShapes, [&](const KeptShape& k) { return k.obj == obj; });
     c.journalF = journal.size();
@@ -2784,6 +2872,9 @@ struct CutEngine::Impl {
     const std::size_t oi = static_cast<std::size_t>(indexOf(obj));
     m.deleteFace(f0);
     m.deleteFace(f1);
+    for (ThinCache& tc : thinCaches)  // new faces around x, y, c, d: not settled
+      if (tc.obj == obj)
+        for (Vertex z : {x, y, c, d}) tc.unsettle(z);
     const std::array<Face, 2> gone{f0, f1};
     bvhs[oi].removeFaces(m, gone);  // keeps the tree's sync local (no scan for dead faces)
     const Face a = m.addFace(c, x, d);
@@ -2807,6 +2898,7 @@ struct CutEngine::Impl {
   // Each face is tested once per call of fixPinches at most (and not again while it
   // keeps its shape: ThinCache).
   void improveAround(int obj, Vertex v, ThinCache& ok) {
+    if (ok.settled(v)) return;  // every face around v has passed (ThinCache)
     SurfaceMesh& m = meshOf(obj);
     const double floor = 0.5 * p.snapDistance;
     for (int round = 0; round < 4; ++round) {
@@ -2823,7 +2915,7 @@ struct CutEngine::Impl {
           const Face f = m.face(ev, s);
           if (f.isValid() && !ok.passed(f)) todo[n++] = f;
         }
-      bool flipped = false;
+      bool flipped = false, thin = false;
       for (std::size_t i = 0; i < n && !flipped; ++i) {
         const Face f = thinTodo[i];
         if (ok.passed(f)) continue;
@@ -2831,6 +2923,7 @@ struct CutEngine::Impl {
           ok.pass(f);
           continue;
         }
+        thin = true;
         Edge longest;
         double L = -1.0;
         for (Edge g : m.edges(f))
@@ -2840,7 +2933,10 @@ struct CutEngine::Impl {
           }
         flipped = tryFlip(obj, longest);  // edges of v changed: list them again
       }
-      if (!flipped) return;
+      if (!flipped) {
+        if (!thin) ok.settle(v);  // every face around v has passed
+        return;
+      }
     }
   }
   std::vector<Face> thinTodo;
@@ -3121,6 +3217,7 @@ struct CutEngine::Impl {
   StepResult run(F&& body) {
     StepResult r;
     res = &r;
+    views = PropertyViews{};  // looked up again in each call
     const Counts before = counts();
     const std::uint64_t v0 = versionSum();
     separationSeconds = 0.0;
