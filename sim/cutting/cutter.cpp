@@ -286,12 +286,30 @@ struct CutEngine::Impl {
 
   // ---- geometry helpers --------------------------------------------------------------
   // SurfaceMesh::faces(v) into a kept vector (the walk asks for every step).
-  static void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
+  // Each face once, in the same order (a mark per face index instead of a search of the
+  // list: a groove's bottom vertex has dozens of faces).
+  void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
     out.clear();
+    newFaceMarks(m);
     for (Edge e : m.edges(v))
       for (int k = 0; k < 2; ++k)
-        if (const Face f = m.face(e, k); f.isValid() && std::find(out.begin(), out.end(), f) == out.end())
+        if (const Face f = m.face(e, k); f.isValid() && faceMark[f.idx()] != faceStamp) {
+          faceMark[f.idx()] = faceStamp;
           out.push_back(f);
+        }
+  }
+  // Per face index: the stamp of the listing that met it, and its place in that list.
+  std::vector<std::uint32_t> faceMark, faceMarkAt;
+  std::uint32_t faceStamp = 0;
+  void newFaceMarks(const SurfaceMesh& m) {
+    if (faceMark.size() < m.facesSize()) {
+      faceMark.resize(m.facesSize() + 1024, 0);
+      faceMarkAt.resize(faceMark.size(), 0);
+    }
+    if (++faceStamp == 0) {  // wrapped
+      std::fill(faceMark.begin(), faceMark.end(), 0u);
+      faceStamp = 1;
+    }
   }
 
   static Vec3 rawNormal(const SurfaceMesh& m, Face f) {
@@ -580,13 +598,18 @@ struct CutEngine::Impl {
     const auto& es = m.edges(x);
     fanFaces.clear();
     fanSide.resize(2 * es.size());
+    newFaceMarks(m);
     for (std::size_t i = 0; i < es.size(); ++i)
       for (int k = 0; k < 2; ++k) {
         const Face f = m.face(es[i], k);
         int at = -1;
         if (f.isValid()) {
-          at = static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
-          if (at == static_cast<int>(fanFaces.size())) fanFaces.push_back(f);
+          if (faceMark[f.idx()] != faceStamp) {
+            faceMark[f.idx()] = faceStamp;
+            faceMarkAt[f.idx()] = static_cast<std::uint32_t>(fanFaces.size());
+            fanFaces.push_back(f);
+          }
+          at = static_cast<int>(faceMarkAt[f.idx()]);
         }
         fanSide[2 * i + static_cast<std::size_t>(k)] = at;
       }
@@ -1806,13 +1829,17 @@ struct CutEngine::Impl {
         const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
         const bool onA = tr.visited.count(a), onB = tr.visited.count(b);
         if (k >= 0 ? tipOnCut && onA && onB : own(f)) continue;
+        const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
+        const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
+        const bool atA = za && !onA, atB = zb && !onB;
+        const bool across = !za && !zb && ((sa > 0) != (sb > 0)) && !(onA && onB);
+        if (!atA && !atB && !across) continue;  // no candidate here: its normal is not needed
         Vec3 nf = rawNormal(m, f);
         const double nl = nf.norm();
         if (!(nl > 0.0)) continue;
         nf /= nl;
         if (std::abs(nf.dot(n)) > 1.0 - 1e-9) continue;  // in the sweep plane itself
         const Vec3 tf = n.cross(nf);
-        const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
         auto consider = [&](bool isV, Vertex vx, const Vec3& q) {
           const Vec3 d = q - pv;
           const double dl = d.norm();
@@ -1830,10 +1857,9 @@ struct CutEngine::Impl {
             best = Cand{isV, vx, a, b, q, score, sign};
           }
         };
-        const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
-        if (za && !onA) consider(true, a, m.position(a));
-        if (zb && !onB) consider(true, b, m.position(b));
-        if (!za && !zb && ((sa > 0) != (sb > 0)) && !(onA && onB)) {
+        if (atA) consider(true, a, m.position(a));
+        if (atB) consider(true, b, m.position(b));
+        if (across) {
           const Vec3 q = m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb));
           consider(false, Vertex(), q);
         }

@@ -436,9 +436,13 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   if (2 * fan.size() >= sides) return Vertex();
   auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
 
+  // v's edge list is set aside while its properties are copied: the copy's list is
+  // built below, so copying v's list (an allocation and a copy) would be wasted.
+  std::vector<Edge> aside;
+  aside.swap(vedges_[v]);
   vprops_.pushBackCopy(v.idx());
+  vedges_[v].swap(aside);
   const Vertex nv(verticesSize() - 1);
-  vedges_[nv].clear();
   journalV_.push_back(v);
   journalV_.push_back(nv);
 
