@@ -907,11 +907,12 @@ struct CutEngine::Impl {
     Vec3 slidePos = Vec3::Zero();
     if (walls) {
       const Vec3 pv = m.position(v), pN = m.position(N);
+      const bool joinedNO = m.findEdge(N, o).isValid();  // (nothing changes before the fill)
       // The opening will be the loop N, v, chain..., copies of chain and v back to N.
       double qFan = -std::numeric_limits<double>::infinity();
       if (chain.size() == 1) {
         // Loop N, v, o, v': its only triangulation is two copies of (v, N, o).
-        if (!m.findEdge(N, o).isValid()) qFan = height(pv, pN, m.position(o));
+        if (!joinedNO) qFan = height(pv, pN, m.position(o));
       } else {
         std::vector<Vertex> ids{N, v};
         ids.insert(ids.end(), chain.begin(), chain.end());
@@ -919,7 +920,7 @@ struct CutEngine::Impl {
         ids.push_back(v);
         qFan = fanQuality(m, ids);
       }
-      const bool fanOk = qFan >= thr && !(chain.size() == 1 && m.findEdge(N, o).isValid());
+      const bool fanOk = qFan >= thr && !(chain.size() == 1 && joinedNO);
       double qApex = -1.0;
       if (chain.size() == 1) {
         const Vec3 po = m.position(o);
@@ -976,7 +977,7 @@ struct CutEngine::Impl {
         auto inReach = [&](const Vec3& q) { return (q - depthN).norm() < reach && onLine(q); };
         const double reuseSin = isApex && fanOk && inReach(po) ? minAngleSin(pv, pN, po) : -1.0;
         double slideSin = -1.0;
-        if (isApex && reuseSin < sinFloor && !m.findEdge(N, o).isValid())
+        if (isApex && reuseSin < sinFloor && !joinedNO)
           slideSin = bestSlide(m, o, v, N, depthN, thr, inReach, onLine, slidePos);
         if (reuseSin >= sinFloor) {
           fill = Fill::Fan;
@@ -1289,7 +1290,11 @@ struct CutEngine::Impl {
     // began: moved on, the groove would start shallower than the blade cut it).
     const auto apexProp = apexOf(m);
     bool follows = false;
-    for (Edge e : m.edges(o)) follows = follows || apexProp[m.otherVertex(e, o)] != 0;
+    for (Edge e : m.edges(o))
+      if (apexProp[m.otherVertex(e, o)] != 0) {
+        follows = true;
+        break;
+      }
     if (!follows) return -1.0;
     // Each face once, from the edge on which it leaves o (no search through a list: a
     // groove-bottom vertex carries many faces), and a twin (the other wall's face over
@@ -1448,7 +1453,9 @@ struct CutEngine::Impl {
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
   static double height(const Vec3& a, const Vec3& b, const Vec3& c) {
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    // One square root for the longest edge: the root is monotonic and correctly rounded,
+    // so the root of the largest square is the largest of the three norms, to the bit.
+    const double longest = std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
     return longest > 0 ? (b - a).cross(c - a).norm() / longest : 0.0;
   }
 
