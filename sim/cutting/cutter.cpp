@@ -597,7 +597,7 @@ struct CutEngine::Impl {
     // list (found while listing it: no second search per edge).
     const auto& es = m.edges(x);
     fanFaces.clear();
-    fanSide.resize(2 * es.size());
+    if (fanSide.size() < 2 * es.size()) fanSide.resize(2 * es.size());  // (only grows: no refill)
     newFaceMarks(m);
     for (std::size_t i = 0; i < es.size(); ++i)
       for (int k = 0; k < 2; ++k) {
@@ -2940,7 +2940,7 @@ struct CutEngine::Impl {
       // tests in that order, as one loop over edges and sides would make them (a face
       // listed twice is passed or, thin, tried again with the same result).
       const auto& es = m.edges(v);
-      thinTodo.resize(2 * es.size());
+      if (thinTodo.size() < 2 * es.size()) thinTodo.resize(2 * es.size());  // (only grows: no refill)
       Face* todo = thinTodo.data();
       std::size_t n = 0;
       for (Edge ev : es)
