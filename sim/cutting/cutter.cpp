@@ -273,14 +273,43 @@ struct CutEngine::Impl {
     physics::redistributeMass(m, list, p.tissue);
   }
 
+  // touch(obj, {x}) for each x in turn (the tissue hooks per vertex, as before), the
+  // object looked up once.
+  void touchEach(int obj, std::span<const Vertex> vs) {
+    if (tissue(obj)) {
+      for (Vertex v : vs) touch(obj, {v});
+      return;
+    }
+    for (Vertex v : vs)
+      if (v.isValid()) dirty.emplace_back(obj, v);
+  }
+
   // ---- geometry helpers --------------------------------------------------------------
   // SurfaceMesh::faces(v) into a kept vector (the walk asks for every step).
-  static void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
+  // Each face once, in the same order (a mark per face index instead of a search of the
+  // list: a groove's bottom vertex has dozens of faces).
+  void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
     out.clear();
+    newFaceMarks(m);
     for (Edge e : m.edges(v))
       for (int k = 0; k < 2; ++k)
-        if (const Face f = m.face(e, k); f.isValid() && std::find(out.begin(), out.end(), f) == out.end())
+        if (const Face f = m.face(e, k); f.isValid() && faceMark[f.idx()] != faceStamp) {
+          faceMark[f.idx()] = faceStamp;
           out.push_back(f);
+        }
+  }
+  // Per face index: the stamp of the listing that met it, and its place in that list.
+  std::vector<std::uint32_t> faceMark, faceMarkAt;
+  std::uint32_t faceStamp = 0;
+  void newFaceMarks(const SurfaceMesh& m) {
+    if (faceMark.size() < m.facesSize()) {
+      faceMark.resize(m.facesSize() + 1024, 0);
+      faceMarkAt.resize(faceMark.size(), 0);
+    }
+    if (++faceStamp == 0) {  // wrapped
+      std::fill(faceMark.begin(), faceMark.end(), 0u);
+      faceStamp = 1;
+    }
   }
 
   static Vec3 rawNormal(const SurfaceMesh& m, Face f) {
@@ -564,30 +593,53 @@ struct CutEngine::Impl {
   // around x (fanFaces, in SurfaceMesh::faces order) 0, 1, ... in order of their first
   // face. Returns the number of groups.
   int fanLabels(const SurfaceMesh& m, Vertex x, std::span<const Edge> cuts) {
-    m.faces(x, fanFaces);
+    // The faces in SurfaceMesh::faces order, and per edge side the face's place in that
+    // list (found while listing it: no second search per edge).
+    const auto& es = m.edges(x);
+    fanFaces.clear();
+    if (fanSide.size() < 2 * es.size()) fanSide.resize(2 * es.size());  // (only grows: no refill)
+    newFaceMarks(m);
+    for (std::size_t i = 0; i < es.size(); ++i)
+      for (int k = 0; k < 2; ++k) {
+        const Face f = m.face(es[i], k);
+        int at = -1;
+        if (f.isValid()) {
+          if (faceMark[f.idx()] != faceStamp) {
+            faceMark[f.idx()] = faceStamp;
+            faceMarkAt[f.idx()] = static_cast<std::uint32_t>(fanFaces.size());
+            fanFaces.push_back(f);
+          }
+          at = static_cast<int>(faceMarkAt[f.idx()]);
+        }
+        fanSide[2 * i + static_cast<std::size_t>(k)] = at;
+      }
     const std::size_t n = fanFaces.size();
     fanParent.resize(n);
     fanLabel.resize(n);
     std::iota(fanParent.begin(), fanParent.end(), 0);
+    // Roots are the smallest index of their group (a parent is always smaller); path
+    // halving shortens the chains without changing any root.
     auto find = [&](int i) {
-      while (fanParent[static_cast<std::size_t>(i)] != i) i = fanParent[static_cast<std::size_t>(i)];
+      while (fanParent[static_cast<std::size_t>(i)] != i) {
+        const int up = fanParent[static_cast<std::size_t>(fanParent[static_cast<std::size_t>(i)])];
+        fanParent[static_cast<std::size_t>(i)] = up;
+        i = up;
+      }
       return i;
     };
-    auto index = [&](Face f) {
-      return static_cast<int>(std::find(fanFaces.begin(), fanFaces.end(), f) - fanFaces.begin());
-    };
-    for (Edge e : m.edges(x)) {
-      if (std::find(cuts.begin(), cuts.end(), e) != cuts.end()) continue;
-      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
-      if (!f0.isValid() || !f1.isValid()) continue;
-      const int r0 = find(index(f0)), r1 = find(index(f1));
+    for (std::size_t i = 0; i < es.size(); ++i) {
+      const int i0 = fanSide[2 * i], i1 = fanSide[2 * i + 1];
+      if (i0 < 0 || i1 < 0) continue;
+      if (std::find(cuts.begin(), cuts.end(), es[i]) != cuts.end()) continue;
+      const int r0 = find(i0), r1 = find(i1);
       if (r0 != r1) fanParent[static_cast<std::size_t>(std::max(r0, r1))] = std::min(r0, r1);
     }
-    // A root is the smallest index of its group, so groups are met in fanGroups' order.
+    // A root is the smallest index of its group, so groups are met in fanGroups' order;
+    // a parent comes before its child, so its label is known (no search to the root).
     int count = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      const int r = find(static_cast<int>(i));
-      fanLabel[i] = r == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(r)];
+      const int up = fanParent[i];
+      fanLabel[i] = up == static_cast<int>(i) ? count++ : fanLabel[static_cast<std::size_t>(up)];
     }
     return count;
   }
@@ -626,6 +678,31 @@ struct CutEngine::Impl {
   static bool singleFan(const SurfaceMesh& m, Vertex x) {
     const auto& es = m.edges(x);
     if (es.empty()) return true;
+    // The usual case first: the walk from the first edge comes back to it after one face
+    // per edge. Then every edge at x was crossed (the faces and edges at x form paths and
+    // cycles, which a walk that never turns back follows without meeting an edge twice),
+    // so none is a boundary and the faces are one closed fan: the walk below would start
+    // there too and count them all. Otherwise that walk decides.
+    {
+      const Edge start = es.front();
+      Face f = m.face(start, 0);
+      Edge e = start;
+      std::size_t count = 0;
+      while (f.isValid() && count < es.size()) {
+        ++count;
+        const int k = m.localIndex(f, x);
+        if (k < 0) break;
+        const auto& fe = m.edges(f);
+        const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
+        const Edge next = out == e ? in : out;
+        if (next == start) {
+          if (count == es.size()) return true;
+          break;
+        }
+        e = next;
+        f = m.otherFace(next, f);
+      }
+    }
     int twice = 0;
     Edge start = es.front();
     bool startOnBoundary = m.isBoundary(start);
@@ -667,20 +744,45 @@ struct CutEngine::Impl {
   }
 
   // The face kind property, looked up once per edit instead of once per triangle.
-  static mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) { return m.faceProperty<int>(kFaceKindProp, kSurface); }
+  // And kept for the rest of the call (run() forgets them): the same mesh at the same
+  // layout has the same property arrays (the engine adds properties, never removes one).
+  struct PropertyViews {
+    const SurfaceMesh* mesh = nullptr;
+    std::uint64_t layout = 0;
+    mesh::FaceProperty<int> kinds;
+    mesh::VertexProperty<std::uint8_t> apex;
+  };
+  PropertyViews views;
+  PropertyViews& viewsOf(SurfaceMesh& m) {
+    if (views.mesh != &m || views.layout != m.layoutVersion()) views = PropertyViews{&m, m.layoutVersion(), {}, {}};
+    return views;
+  }
+  mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) {
+    PropertyViews& w = viewsOf(m);
+    if (!w.kinds) w.kinds = m.faceProperty<int>(kFaceKindProp, kSurface);
+    return w.kinds;
+  }
+  mesh::VertexProperty<std::uint8_t> apexOf(SurfaceMesh& m) {
+    PropertyViews& w = viewsOf(m);
+    if (!w.apex) w.apex = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    return w.apex;
+  }
 
   static Face addTriangle(SurfaceMesh& m, mesh::FaceProperty<int>& kinds, Vertex a, Vertex b, Vertex c, int kind) {
     // A face running a -> b already rules out (a, b, c): try the other orientation first
     // (the same result, without the failed attempt).
+    // The three sides are looked up once for both orientations.
+    if (!m.isValid(a) || !m.isValid(b) || !m.isValid(c)) return m.addFace(a, b, c);  // throws
+    const Edge ab = m.findEdge(a, b), bc = m.findEdge(b, c), ca = m.findEdge(c, a);
     bool flip = false;
-    if (const Edge ab = m.findEdge(a, b); ab.isValid()) {
+    if (ab.isValid()) {
       const auto& fv = m.vertices(m.face(ab, 0));
       const int i = m.localIndex(m.face(ab, 0), a);
       flip = i >= 0 && fv[static_cast<std::size_t>((i + 1) % 3)] == b;
     }
-    if (flip) std::swap(b, c);
-    Face f = m.addFace(a, b, c);
-    if (!f.isValid() && !flip) f = m.addFace(a, c, b);
+    // (a, b, c) runs ab, bc, ca; (a, c, b) runs ca, bc, ab.
+    Face f = flip ? m.addFace(a, c, b, {ca, bc, ab}) : m.addFace(a, b, c, {ab, bc, ca});
+    if (!f.isValid() && !flip) f = m.addFace(a, c, b, {ca, bc, ab});
     if (f.isValid()) kinds[f] = kind;
     return f;
   }
@@ -720,7 +822,7 @@ struct CutEngine::Impl {
       added[nAdded++] = f;
     }
     if (nAdded == 4) {
-      m.vertexProperty<std::uint8_t>(kApexProp, 0)[B] = 1;
+      apexOf(m)[B] = 1;
       if (tissue(obj)) {
         physics::initVertexCopy(m, B, n, p.tissue);
         auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
@@ -787,7 +889,7 @@ struct CutEngine::Impl {
     }
     const bool walls = closedObject(tr.object);
     const bool paired = P != nullptr;
-    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    const auto apexProp = apexOf(m);
     const double thr = 0.5 * p.snapDistance;
     // How to close the opening, decided on the geometry before anything changes:
     //  Fan  - triangles from N over the front (v, chain...): two for a one-vertex front;
@@ -805,11 +907,12 @@ struct CutEngine::Impl {
     Vec3 slidePos = Vec3::Zero();
     if (walls) {
       const Vec3 pv = m.position(v), pN = m.position(N);
+      const bool joinedNO = m.findEdge(N, o).isValid();  // (nothing changes before the fill)
       // The opening will be the loop N, v, chain..., copies of chain and v back to N.
       double qFan = -std::numeric_limits<double>::infinity();
       if (chain.size() == 1) {
         // Loop N, v, o, v': its only triangulation is two copies of (v, N, o).
-        if (!m.findEdge(N, o).isValid()) qFan = height(pv, pN, m.position(o));
+        if (!joinedNO) qFan = height(pv, pN, m.position(o));
       } else {
         std::vector<Vertex> ids{N, v};
         ids.insert(ids.end(), chain.begin(), chain.end());
@@ -817,7 +920,7 @@ struct CutEngine::Impl {
         ids.push_back(v);
         qFan = fanQuality(m, ids);
       }
-      const bool fanOk = qFan >= thr && !(chain.size() == 1 && m.findEdge(N, o).isValid());
+      const bool fanOk = qFan >= thr && !(chain.size() == 1 && joinedNO);
       double qApex = -1.0;
       if (chain.size() == 1) {
         const Vec3 po = m.position(o);
@@ -874,7 +977,7 @@ struct CutEngine::Impl {
         auto inReach = [&](const Vec3& q) { return (q - depthN).norm() < reach && onLine(q); };
         const double reuseSin = isApex && fanOk && inReach(po) ? minAngleSin(pv, pN, po) : -1.0;
         double slideSin = -1.0;
-        if (isApex && reuseSin < sinFloor && !m.findEdge(N, o).isValid())
+        if (isApex && reuseSin < sinFloor && !joinedNO)
           slideSin = bestSlide(m, o, v, N, depthN, thr, inReach, onLine, slidePos);
         if (reuseSin >= sinFloor) {
           fill = Fill::Fan;
@@ -914,7 +1017,12 @@ struct CutEngine::Impl {
     const std::size_t facesBefore = m.facesSize();
     const std::array<Edge, 2> cutsAtV{eOut, eFront};
     Vertex vn;
-    if (fanLabels(m, v, cutsAtV) == 2) vn = m.splitVertex(v, fanOf(1));
+    if (fanLabels(m, v, cutsAtV) == 2) {
+      const std::size_t j0 = m.editedFaces().size();
+      vn = m.splitVertex(v, fanOf(1));
+      // Its faces only change a corner for a copy at the same place: the same shapes.
+      if (vn.isValid()) keptShapes.push_back({tr.object, m.layoutVersion(), j0, m.editedFaces().size()});
+    }
     if (!vn.isValid()) {
       // Cannot open here (should not happen on a manifold mesh): leave the slit closed.
       advanceTo({v});
@@ -985,7 +1093,7 @@ struct CutEngine::Impl {
           }
     }
     const std::size_t dirtyBefore = dirty.size();
-    for (Vertex x : touched) touch(tr.object, {x});
+    touchEach(tr.object, touched);
     const long unpinchedBefore = stats.unpinched;
     for (Vertex x : touched) unpinch(tr.object, x);
     // Checked here and nothing split: the safety net need not walk these fans again
@@ -1180,9 +1288,13 @@ struct CutEngine::Impl {
     const Vec3 pv = m.position(v), pN = m.position(N), po = m.position(o);
     // The first bottom vertex of a groove stays (its walls ramp up to where the cut
     // began: moved on, the groove would start shallower than the blade cut it).
-    const auto apexProp = m.vertexProperty<std::uint8_t>(kApexProp, 0);
+    const auto apexProp = apexOf(m);
     bool follows = false;
-    for (Edge e : m.edges(o)) follows = follows || apexProp[m.otherVertex(e, o)] != 0;
+    for (Edge e : m.edges(o))
+      if (apexProp[m.otherVertex(e, o)] != 0) {
+        follows = true;
+        break;
+      }
     if (!follows) return -1.0;
     // Each face once, from the edge on which it leaves o (no search through a list: a
     // groove-bottom vertex carries many faces), and a twin (the other wall's face over
@@ -1327,17 +1439,23 @@ struct CutEngine::Impl {
     slidPending.emplace_back(obj, o);  // its boxes are refitted at the next sync
     // Its faces changed shape: the flips' thinness test must see them again.
     for (ThinCache& c : thinCaches)
-      if (c.obj == obj)
+      if (c.obj == obj) {
         for (Edge e : m.edges(o))
           for (int side = 0; side < 2; ++side) {
             const Face f = m.face(e, side);
             if (f.isValid() && f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
           }
+        // (their corners: o and its neighbours)
+        c.unsettle(o);
+        for (Edge e : m.edges(o)) c.unsettle(m.otherVertex(e, o));
+      }
   }
 
   // Smallest height of triangle (a, b, c): what makes a sliver.
   static double height(const Vec3& a, const Vec3& b, const Vec3& c) {
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    // One square root for the longest edge: the root is monotonic and correctly rounded,
+    // so the root of the largest square is the largest of the three norms, to the bit.
+    const double longest = std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
     return longest > 0 ? (b - a).cross(c - a).norm() / longest : 0.0;
   }
 
@@ -1710,18 +1828,25 @@ struct CutEngine::Impl {
       } best;
       bool found = false;
       const double eps = 1e-10 * scaleOf(pv);
+      // Each corner's visited test once per face (own(f): all three are on the cut).
+      const bool tipOnCut = tr.visited.count(v);
       for (Face f : around) {
-        if (own(f)) continue;
+        const auto& fv = m.vertices(f);
+        const int k = m.localIndex(f, v);
+        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
+        const bool onA = tr.visited.count(a), onB = tr.visited.count(b);
+        if (k >= 0 ? tipOnCut && onA && onB : own(f)) continue;
+        const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
+        const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
+        const bool atA = za && !onA, atB = zb && !onB;
+        const bool across = !za && !zb && ((sa > 0) != (sb > 0)) && !(onA && onB);
+        if (!atA && !atB && !across) continue;  // no candidate here: its normal is not needed
         Vec3 nf = rawNormal(m, f);
         const double nl = nf.norm();
         if (!(nl > 0.0)) continue;
         nf /= nl;
         if (std::abs(nf.dot(n)) > 1.0 - 1e-9) continue;  // in the sweep plane itself
         const Vec3 tf = n.cross(nf);
-        const auto& fv = m.vertices(f);
-        const int k = m.localIndex(f, v);
-        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
-        const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
         auto consider = [&](bool isV, Vertex vx, const Vec3& q) {
           const Vec3 d = q - pv;
           const double dl = d.norm();
@@ -1739,10 +1864,9 @@ struct CutEngine::Impl {
             best = Cand{isV, vx, a, b, q, score, sign};
           }
         };
-        const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
-        if (za && !tr.visited.count(a)) consider(true, a, m.position(a));
-        if (zb && !tr.visited.count(b)) consider(true, b, m.position(b));
-        if (!za && !zb && ((sa > 0) != (sb > 0)) && !(tr.visited.count(a) && tr.visited.count(b))) {
+        if (atA) consider(true, a, m.position(a));
+        if (atB) consider(true, b, m.position(b));
+        if (across) {
           const Vec3 q = m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb));
           consider(false, Vertex(), q);
         }
@@ -2603,7 +2727,7 @@ struct CutEngine::Impl {
   std::vector<Face> walkFaces;
   // Fan splits (fanLabels, splitByGroups) and extend's vertex list.
   std::vector<Face> fanFaces, fanPick;
-  std::vector<int> fanParent, fanLabel;
+  std::vector<int> fanParent, fanLabel, fanSide;
   std::vector<std::vector<Face>> fanGroupsBuf;
   std::vector<Vertex> extendTouched;
 
@@ -2649,23 +2773,49 @@ struct CutEngine::Impl {
   // (slideBottom un-marks its faces), so a face that passed keeps its shape until
   // then. Faces found thin are not remembered (a later flip may fix them). The result
   // is the one of testing every face around every edited vertex.
+  // A vertex is settled when every face around it has passed; the faces the journal
+  // lists are tested when the cache is brought up to date (thinCacheFor), and a thin one
+  // unsettles its corners (so do a slide and a flip), so that around a settled vertex
+  // every face has passed and improveAround need not walk its (often long: a groove's
+  // bottom vertex) edge list. Testing a face earlier than improveAround would does not
+  // change what happens: passing depends on the face's shape alone, and no flip is made
+  // there; the flips are tried in the same order as before.
   struct ThinCache {
     int obj = -1;
     std::uint64_t layout = 0;
     long motion = -1;
     std::size_t journalF = 0;
     std::uint32_t gen = 0;
-    std::vector<std::uint32_t> okGen;  // per face index: gen when it passed
+    std::vector<std::uint32_t> okGen;       // per face index: gen when it passed
+    std::vector<std::uint32_t> settledGen;  // per vertex index: gen when it was settled
     [[nodiscard]] bool passed(Face f) const { return f.idx() < okGen.size() && okGen[f.idx()] == gen; }
     void pass(Face f) {
       if (f.idx() >= okGen.size()) okGen.resize(f.idx() + 1024, 0);
       okGen[f.idx()] = gen;
     }
+    [[nodiscard]] bool settled(Vertex v) const { return v.idx() < settledGen.size() && settledGen[v.idx()] == gen; }
+    void settle(Vertex v) {
+      if (v.idx() >= settledGen.size()) settledGen.resize(v.idx() + 1024, 0);
+      settledGen[v.idx()] = gen;
+    }
+    void unsettle(Vertex v) {
+      if (v.isValid() && v.idx() < settledGen.size()) settledGen[v.idx()] = 0;
+    }
   };
   std::vector<ThinCache> thinCaches;
+  // Journal entries (faces [from, to) of an object's journal at `layout`) that re-set
+  // faces without changing their shape (extend's splitVertex: a corner becomes its copy
+  // at the same place): they keep what the thinness test found.
+  struct KeptShape {
+    int obj;
+    std::uint64_t layout;
+    std::size_t from, to;
+  };
+  std::vector<KeptShape> keptShapes;
   ThinCache& thinCacheFor(int obj) {
     const SurfaceMesh& m = meshOf(obj);
     std::erase_if(thinCaches, [&](const ThinCache& c) { return indexOf(c.obj) < 0; });
+    std::erase_if(keptShapes, [&](const KeptShape& k) { return indexOf(k.obj) < 0; });
     auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
     ThinCache& c = it != thinCaches.end() ? *it : thinCaches.emplace_back();
     const auto journal = m.editedFaces();
@@ -2675,12 +2825,34 @@ struct CutEngine::Impl {
       c.motion = motionCount;
       if (++c.gen == 0) {  // wrapped: forget every mark
         std::fill(c.okGen.begin(), c.okGen.end(), 0u);
+        std::fill(c.settledGen.begin(), c.settledGen.end(), 0u);
         c.gen = 1;
       }
     } else {
-      for (Face f : journal.subspan(c.journalF))
-        if (f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+      // The journal since the last call, less the kept shapes (recorded in edit order).
+      std::size_t at = c.journalF;
+      auto forget = [&](std::size_t to) {
+        for (; at < to; ++at)
+          if (const Face f = journal[at]; f.idx() < c.okGen.size()) c.okGen[f.idx()] = 0;
+      };
+      for (const KeptShape& k : keptShapes) {
+        if (k.obj != obj || k.layout != c.layout || k.from < at || k.to > journal.size()) continue;
+        forget(k.from);
+        at = k.to;
+      }
+      forget(journal.size());
+      // The listed faces tested now (see ThinCache): a thin one unsettles its corners.
+      const double floor = 0.5 * p.snapDistance;
+      for (std::size_t i = c.journalF; i < journal.size(); ++i) {
+        const Face f = journal[i];
+        if (m.isDeleted(f) || c.passed(f)) continue;
+        if (!thinnerThan(m, f, floor))
+          c.pass(f);
+        else
+          for (Vertex x : m.vertices(f)) c.unsettle(x);
+      }
     }
+    std::erase_if(keptShapes, [&](const KeptShape& k) { return k.obj == obj; });
     c.journalF = journal.size();
     return c;
   }
@@ -2733,6 +2905,9 @@ struct CutEngine::Impl {
     const std::size_t oi = static_cast<std::size_t>(indexOf(obj));
     m.deleteFace(f0);
     m.deleteFace(f1);
+    for (ThinCache& tc : thinCaches)  // new faces around x, y, c, d: not settled
+      if (tc.obj == obj)
+        for (Vertex z : {x, y, c, d}) tc.unsettle(z);
     const std::array<Face, 2> gone{f0, f1};
     bvhs[oi].removeFaces(m, gone);  // keeps the tree's sync local (no scan for dead faces)
     const Face a = m.addFace(c, x, d);
@@ -2756,6 +2931,7 @@ struct CutEngine::Impl {
   // Each face is tested once per call of fixPinches at most (and not again while it
   // keeps its shape: ThinCache).
   void improveAround(int obj, Vertex v, ThinCache& ok) {
+    if (ok.settled(v)) return;  // every face around v has passed (ThinCache)
     SurfaceMesh& m = meshOf(obj);
     const double floor = 0.5 * p.snapDistance;
     for (int round = 0; round < 4; ++round) {
@@ -2764,7 +2940,7 @@ struct CutEngine::Impl {
       // tests in that order, as one loop over edges and sides would make them (a face
       // listed twice is passed or, thin, tried again with the same result).
       const auto& es = m.edges(v);
-      thinTodo.resize(2 * es.size());
+      if (thinTodo.size() < 2 * es.size()) thinTodo.resize(2 * es.size());  // (only grows: no refill)
       Face* todo = thinTodo.data();
       std::size_t n = 0;
       for (Edge ev : es)
@@ -2772,7 +2948,7 @@ struct CutEngine::Impl {
           const Face f = m.face(ev, s);
           if (f.isValid() && !ok.passed(f)) todo[n++] = f;
         }
-      bool flipped = false;
+      bool flipped = false, thin = false;
       for (std::size_t i = 0; i < n && !flipped; ++i) {
         const Face f = thinTodo[i];
         if (ok.passed(f)) continue;
@@ -2780,6 +2956,7 @@ struct CutEngine::Impl {
           ok.pass(f);
           continue;
         }
+        thin = true;
         Edge longest;
         double L = -1.0;
         for (Edge g : m.edges(f))
@@ -2789,7 +2966,10 @@ struct CutEngine::Impl {
           }
         flipped = tryFlip(obj, longest);  // edges of v changed: list them again
       }
-      if (!flipped) return;
+      if (!flipped) {
+        if (!thin) ok.settle(v);  // every face around v has passed
+        return;
+      }
     }
   }
   std::vector<Face> thinTodo;
@@ -3070,6 +3250,7 @@ struct CutEngine::Impl {
   StepResult run(F&& body) {
     StepResult r;
     res = &r;
+    views = PropertyViews{};  // looked up again in each call
     const Counts before = counts();
     const std::uint64_t v0 = versionSum();
     separationSeconds = 0.0;

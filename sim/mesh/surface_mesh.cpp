@@ -287,12 +287,22 @@ Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c) {
   check(b, "addFace");
   check(c, "addFace");
   if (a == b || b == c || c == a) return Face();
+  return addFaceOnSides(a, b, c, {findEdge(a, b), findEdge(b, c), findEdge(c, a)});
+}
+
+Face SurfaceMesh::addFace(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& sides) {
+  check(a, "addFace");
+  check(b, "addFace");
+  check(c, "addFace");
+  if (a == b || b == c || c == a) return Face();
+  return addFaceOnSides(a, b, c, sides);
+}
+
+Face SurfaceMesh::addFaceOnSides(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& found) {
   const std::array<Vertex, 3> v{a, b, c};
-  std::array<Edge, 3> found{};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
-    Edge e = findEdge(x, y);
-    found[i] = e;
+    const Edge e = found[i];
     if (!e.isValid()) continue;
     const auto& ef = efaces_[e];
     if (ef[1].isValid()) return Face();  // would be a third face
@@ -426,9 +436,13 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   if (2 * fan.size() >= sides) return Vertex();
   auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
 
+  // v's edge list is set aside while its properties are copied: the copy's list is
+  // built below, so copying v's list (an allocation and a copy) would be wasted.
+  std::vector<Edge> aside;
+  aside.swap(vedges_[v]);
   vprops_.pushBackCopy(v.idx());
+  vedges_[v].swap(aside);
   const Vertex nv(verticesSize() - 1);
-  vedges_[nv].clear();
   journalV_.push_back(v);
   journalV_.push_back(nv);
 

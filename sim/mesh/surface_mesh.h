@@ -189,6 +189,11 @@ class SurfaceMesh {
   // edge of the triangle already has two faces, or already has one face that runs
   // it in the same direction (inconsistent orientation).
   Face addFace(Vertex a, Vertex b, Vertex c);
+  // The same with the sides already looked up: sides[i] is findEdge of corners i and
+  // i + 1 ((a,b), (b,c), (c,a)), invalid where there is no such edge (a caller that tries
+  // both orientations of one triangle looks its edges up once). Pre as addFace and the
+  // sides as stated (not checked); same result as addFace(a, b, c).
+  Face addFace(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& sides);
 
   // Pre: f live. Post: f deleted; edges left without a face are deleted; vertices
   // stay (they may become isolated).
@@ -357,6 +362,8 @@ class SurfaceMesh {
   void detachFace(Face f);
   // (`missingAreNew`: an edge not in `known` does not exist yet; no search.)
   void attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known = {}, bool missingAreNew = false);
+  // addFace's tail: a, b, c live and distinct, `found` their sides as findEdge gives them.
+  Face addFaceOnSides(Vertex a, Vertex b, Vertex c, const std::array<Edge, 3>& found);
   void deleteEmptyEdge(Edge e);
   void removeEdgeFromVertex(Vertex v, Edge e);
   [[nodiscard]] bool runsForward(Face f, Edge e) const;  // f traverses e from vertex 0 to 1

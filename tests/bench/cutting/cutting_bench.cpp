@@ -5,7 +5,11 @@
 #include <time.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <vector>
 
 #include "sim/cutting/cutter.h"
 #include "sim/cutting/mesh_checks.h"
@@ -49,6 +53,44 @@ double wallAngleDeg(const ld::mesh::SurfaceMesh& m) {
   return worst;
 }
 
+// FNV-1a over bytes.
+std::uint64_t fnv(std::uint64_t h, const void* data, std::size_t n) {
+  const auto* b = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ULL;
+  return h;
+}
+
+// Hashes of the final meshes, low 32 bits (exact in a double counter):
+//   geometry  the triangles as sorted corner coordinates, sorted (independent of numbering);
+//   indices   every object's face corner indices in face order and its positions' bits.
+std::array<double, 2> meshHashes(const ld::cutting::CutEngine& e) {
+  std::uint64_t geo = 1469598103934665603ULL, idx = geo;
+  for (const auto& o : e.objects()) {
+    const auto& m = o.mesh;
+    std::vector<std::array<double, 9>> tris;
+    for (auto f : m.faces()) {
+      const auto& v = m.vertices(f);
+      std::array<std::array<double, 3>, 3> c{};
+      for (int i = 0; i < 3; ++i) {
+        const Vec3 p = m.position(v[i]);
+        c[i] = {p.x(), p.y(), p.z()};
+        const int vi = static_cast<int>(v[i].idx());
+        idx = fnv(idx, &vi, sizeof vi);
+      }
+      std::sort(c.begin(), c.end());
+      tris.push_back({c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]});
+    }
+    std::sort(tris.begin(), tris.end());
+    for (const auto& t : tris) geo = fnv(geo, t.data(), sizeof(double) * t.size());
+    for (auto v : m.vertices()) {
+      const Vec3 p = m.position(v);
+      const double xyz[3] = {p.x(), p.y(), p.z()};
+      idx = fnv(idx, xyz, sizeof xyz);
+    }
+  }
+  return {static_cast<double>(geo & 0xffffffffULL), static_cast<double>(idx & 0xffffffffULL)};
+}
+
 // Parallel strokes across the slab: cut-through (tip below) or groove (tip inside).
 void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
   for (int s = 0; s < strokes; ++s) {
@@ -69,13 +111,16 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 //                               vertices a cut's front had (tip to the other layer);
 //   bottom_slides               CutStats::bottomSlides (groove-bottom vertices moved on);
 //   min_angle_deg, min_area_mm2 the meshes' smallest triangle angle and area;
-//   wall_min_angle_deg          the same angle over the cut's walls only.
+//   wall_min_angle_deg          the same angle over the cut's walls only;
+//   mesh_hash_geometry/_indices the final meshes' hashes (meshHashes): an optimisation
+//                               that keeps the result keeps these.
 void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int kind) {
   // 0: cut-through, 1: groove 2 mm deep, 2: shallow groove 0.4 mm deep (the hook's
   // usual depth: long, low walls), 3: groove deepening through the bottom mid-stroke.
   const double tipZ = kind == 0 ? -4.0 : (kind == 2 ? 2.1 : 0.5);
   double wallMinAngle = 0, us = 0, perTri = 0, collUs = 0, slowPerTri = 0, minAngle = 0, minArea = 0, strokeUs = 0,
          sepMs = 0;
+  std::array<double, 2> hashes{};
   long cut = 0, separations = 0, longestFront = 0, slides = 0;
   for (auto _ : state) {
     state.PauseTiming();
@@ -115,6 +160,7 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
       minArea = std::min(minArea, q.minArea);
       wallMinAngle = std::min(wallMinAngle, wallAngleDeg(o.mesh));
     }
+    hashes = meshHashes(e);
     state.ResumeTiming();
   }
   state.counters["min_angle_deg"] = minAngle;
@@ -130,6 +176,8 @@ void remeshRun(benchmark::State& state, const ld::mesh::SurfaceMesh& base, int k
   state.counters["separations"] = static_cast<double>(separations);
   state.counters["longest_front"] = static_cast<double>(longestFront);
   state.counters["bottom_slides"] = static_cast<double>(slides);
+  state.counters["mesh_hash_geometry"] = hashes[0];
+  state.counters["mesh_hash_indices"] = hashes[1];
 }
 
 void BM_Remesh(benchmark::State& state) {
