@@ -362,9 +362,8 @@ MovingRun runMovingSeed(unsigned seed, bool still = false) {
     return t;
   };
   const Vec3 c = 0.5 * (lo + hi), ext = hi - lo;
-  // Entry and exit keep 2 mm from the slab's corners, and the blade is within ~3° of
-  // upright: oblique exits near a corner or with a tilted blade fail on still tissue too
-  // (README, Limits); this test is about the motion.
+  // Entry and exit keep 2 mm from the slab's corners: exits near a corner fail on still
+  // tissue too (README, Limits); this test is about the motion.
   auto nearCorner = [&](const Vec3& x) {
     const double dx = std::min(std::abs(x.x() - lo.x()), std::abs(x.x() - hi.x()));
     const double dy = std::min(std::abs(x.y() - lo.y()), std::abs(x.y() - hi.y()));
@@ -381,7 +380,10 @@ MovingRun runMovingSeed(unsigned seed, bool still = false) {
     if (tries > 100 || (!nearCorner(q - toSide(q, -d1) * d1) && !nearCorner(q + toSide(q, d2) * d2))) break;
   }
   const Vec3 start = q - (toSide(q, -d1) + 1.5) * d1, end = q + (toSide(q, d2) + 1.5) * d2;
-  const Vec3 blade = Vec3(0.1 * (U(rng) - 0.5), 0.1 * (U(rng) - 0.5), -1.0).normalized();
+  // The blade tilted up to 10 degrees any way (over the side it crosses the side face
+  // first with one end: the slide-in and cut-out walks start on the side face).
+  const double tilt = 10.0 * M_PI / 180.0 * U(rng), tiltAz = 2.0 * M_PI * U(rng);
+  const Vec3 blade(std::sin(tilt) * std::cos(tiltAz), std::sin(tilt) * std::sin(tiltAz), -std::cos(tilt));
   const double speed = 20.0 + 130.0 * U(rng);
   const double hz = std::array<double, 3>{250.0, 500.0, 1000.0}[static_cast<std::size_t>(3.0 * U(rng)) % 3];
   const long failuresBefore = e.stats().walkFailures;
@@ -457,12 +459,15 @@ TEST(CutterProperty, RandomStrokesOnMovingTissue) {
   std::cout << "moving tissue: " << count << " freeing strokes, freed " << separated << " (without physics "
             << separatedStill << "), walk failures " << failures << ", samples held behind a moved tip " << holds
             << "\n";
-  // Measured (scale 4, 128 strokes): 118 freed with physics, 109 without, 4 walk
-  // failures (cutting README). With start/pending kept as world points instead of
-  // tissue points (the old behaviour), scale 1 sees 8 walk failures and fails here.
+  // Measured with the blade tilted up to 10 degrees (scale 1 / 2 / 4: 32 / 64 / 128
+  // strokes): freed 30 / 61 / 124 with physics, 32 / 64 / 127 without, no walk failures.
+  // Before tilted slide-ins and cut-outs were fixed: 28 / 56 / 116, 30 / 59 / 112, walk
+  // failures 2 / 4 / 6 (cutting README). With start/pending kept as world points instead
+  // of tissue points (older still), scale 1 saw 8 walk failures.
   EXPECT_GE(separated, separatedStill - std::max(1, count / 16)) << "the motion keeps pieces from coming free";
-  EXPECT_GE(separated, count * 8 / 10) << "too few strokes across the slab freed their piece";
-  EXPECT_LE(failures, std::max(1, count / 16)) << "tracks lose the blade on moving tissue";
+  EXPECT_GE(separated, count * 9 / 10) << "too few strokes across the slab freed their piece";
+  EXPECT_GE(separatedStill, count - std::max(1, count / 32)) << "strokes across the still slab left pieces attached";
+  EXPECT_LE(failures, std::max(1, count / 32)) << "tracks lose the blade on moving tissue";
 }
 
 // Replays one moving-tissue seed: LD_CUT_MOVING_SEED=<seed> (LD_CUT_MOVING_STILL=1: no physics).
