@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <functional>
 #include <iostream>
@@ -182,11 +181,22 @@ struct Track {
   double pathLength = 0.0;  // along the path so far (extend)
 };
 
+// What one contact of a hand (from the blade's first crossing until it is out of the
+// tissue with no cut open) has done to one object: the vertices its cuts made or
+// walked (the lips and walls of this stroke's cut) and the faces it has added.
+struct StrokeOnObject {
+  int object = -1;
+  VertexSet cut;          // visited vertices of this stroke's tracks that have ended
+  long facesAtStart = 0;  // the object's faces when the stroke first cut it
+  bool capped = false;    // grew past the stroke's budget: no more cutting until it ends
+};
+
 struct HandState {
   bool hasPrev = false;
   Tool tool = Tool::Scalpel;
   Pose prev;
   std::vector<Track> tracks;
+  std::vector<StrokeOnObject> stroke;
 };
 
 double scaleOf(const Vec3& p) { return 1.0 + p.cwiseAbs().maxCoeff(); }
@@ -2177,6 +2187,7 @@ struct CutEngine::Impl {
     for (auto& t : hs.tracks)
       if (t.alive) end(t);
     hs.tracks.clear();
+    hs.stroke.clear();
   }
 
   void end(Track& tr) {
@@ -2611,6 +2622,99 @@ struct CutEngine::Impl {
     hs.tracks.push_back(newTrack(h));
   }
 
+  // ---- one stroke's own cut, and the guards against a runaway ---------------------------------
+  StrokeOnObject& strokeOn(HandState& hs, int obj) {
+    for (auto& so : hs.stroke)
+      if (so.object == obj) return so;
+    StrokeOnObject so;
+    so.object = obj;
+    so.facesAtStart = static_cast<long>(meshOf(obj).nFaces());
+    hs.stroke.push_back(std::move(so));
+    return hs.stroke.back();
+  }
+  // Ended tracks leave the hand; what they cut stays part of the stroke's cut.
+  void retireTracks(HandState& hs) {
+    for (auto& t : hs.tracks)
+      if (!t.alive) {
+        StrokeOnObject& so = strokeOn(hs, t.object);
+        t.visited.forEach([&](Vertex x) { so.cut.insert(x); });
+      }
+    std::erase_if(hs.tracks, [](const Track& t) { return !t.alive; });
+  }
+
+  int kindOf(const Hit& h) const {
+    const int k = indexOf(h.object);
+    if (k < 0) return kSurface;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(k)].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    return kind && m.isValid(h.face) ? kind[h.face] : kSurface;
+  }
+  // A crossing on a lip or wall of the cut this stroke has made: its face has a corner
+  // on that cut which no track of the hand goes on from (not a tip). That is the cut's
+  // own edge, which the moving tissue has curled into the blade's way (a fold), not new
+  // tissue: it opens no track. (The 0.5 mm fold rule only kept two such crossings side
+  // by side from pairing; each still started a groove in the lip, and with crossings
+  // matched along their way and slid groove bottoms that ran away: ~850 tracks in 25 s
+  // on slab-straight-line with physics.)
+  bool onStrokeLip(const HandState& hs, const Hit& h) const {
+    const int k = indexOf(h.object);
+    if (k < 0) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(k)].mesh;
+    if (!m.isValid(h.face)) return false;
+    const StrokeOnObject* so = nullptr;
+    for (const auto& x : hs.stroke)
+      if (x.object == h.object) so = &x;
+    for (Vertex c : m.vertices(h.face)) {
+      bool cut = so && so->cut.count(c), tip = false;
+      for (const Track& t : hs.tracks) {
+        if (t.object != h.object) continue;
+        if (t.tip == c) tip = true;
+        cut = cut || t.visited.count(c);
+      }
+      if (cut && !tip) return true;
+    }
+    return false;
+  }
+
+  // May n new tracks of this cutting edge start on obj in this sample? Not past
+  // CutParams::maxNewTracksPerSample (the default, four, is two pairs: an edge through
+  // both layers of a slab and of a piece folded over it; more is a crumpled surface),
+  // nor on an object the stroke has grown past its budget. CutStats::tracksRefused.
+  struct NewTracks {
+    int object, segment, count;
+  };
+  std::vector<NewTracks> newTracksBuf;  // tracks started in this sample
+  bool mayStart(HandState& hs, int obj, int segment, int n) {
+    StrokeOnObject& so = strokeOn(hs, obj);
+    auto it = std::find_if(newTracksBuf.begin(), newTracksBuf.end(),
+                           [&](const NewTracks& x) { return x.object == obj && x.segment == segment; });
+    if (it == newTracksBuf.end()) it = newTracksBuf.insert(newTracksBuf.end(), {obj, segment, 0});
+    if (so.capped || it->count + n > p.maxNewTracksPerSample) {
+      if (dbg()) std::cerr << "refused " << n << " new track(s) on object " << obj << "\n";
+      stats.tracksRefused += n;
+      return false;
+    }
+    it->count += n;
+    return true;
+  }
+
+  // A stroke that has grown an object past its budget ends its cuts there.
+  void capStrokeGrowth(HandState& hs) {
+    for (auto& so : hs.stroke) {
+      const int k = indexOf(so.object);
+      if (so.capped || k < 0) continue;
+      const long grown = static_cast<long>(objects[static_cast<std::size_t>(k)].mesh.nFaces()) - so.facesAtStart;
+      const double budget =
+          std::max(static_cast<double>(p.strokeFacesMin), p.strokeFacesFactor * static_cast<double>(so.facesAtStart));
+      if (static_cast<double>(grown) <= budget) continue;
+      if (dbg()) std::cerr << "stroke capped on object " << so.object << " after " << grown << " new faces\n";
+      so.capped = true;
+      ++stats.strokeCaps;
+      for (auto& t : hs.tracks)
+        if (t.alive && t.object == so.object) terminate(t);
+    }
+  }
+
   // ---- separation -----------------------------------------------------------------------------
   void endTracksOn(int obj) {
     for (auto& hs : hands)
@@ -2723,6 +2827,13 @@ struct CutEngine::Impl {
       const mesh::Compaction cm = m.garbageCollection();
       roomToCut(m);
       bvhs[k].remap(m, cm);
+      // Vertex handles changed: the strokes forget their cut on this object.
+      for (auto& hs : hands) {
+        for (auto& so : hs.stroke)
+          if (so.object == objects[k].id) so.cut = VertexSet();
+        for (auto& t : hs.tracks)
+          if (t.object == objects[k].id) t.visited = VertexSet();  // ended (endTracksOn)
+      }
     }
   }
 
@@ -3110,6 +3221,10 @@ struct CutEngine::Impl {
       terminateAll(hs);
       return;
     }
+    newTracksBuf.clear();
+    // Out of the tissue with no cut open: the stroke is over (its own cut is any tissue now).
+    if (hits.empty() && std::none_of(hs.tracks.begin(), hs.tracks.end(), [](const Track& t) { return t.alive; }))
+      hs.stroke.clear();
     std::vector<instruments::Segment> prevSegs;
     if (prevPose) prevSegs = instruments::segments(tool, *prevPose, p.tool);
     auto motionOf = [&](int s) -> Vec3 {
@@ -3208,6 +3323,7 @@ struct CutEngine::Impl {
     }
     for (const Deep& d : deepBuf) {
       hits[d.hit].used = true;
+      if (!mayStart(hs, hits[d.hit].object, hits[d.hit].segment, 1)) continue;
       const bool swept = d.fraction <= 1.0;
       deepen(hs, static_cast<std::size_t>(d.track), hits[d.hit], swept ? &d.from : nullptr, swept ? &d.to : nullptr);
     }
@@ -3261,6 +3377,15 @@ struct CutEngine::Impl {
     for (std::size_t i = 0; i < hits.size(); ++i) {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
+      // (A track that could not walk to its crossing restarts there: on the surface that
+      // is the cut going on past a corner it could not take, so the lip rule spares it.)
+      const bool restart = trackOfHit[i] >= 0 && kindOf(h) == kSurface;
+      if (!restart && onStrokeLip(hs, h)) {
+        hits[i].used = true;
+        ++stats.lipCrossings;
+        if (dbg()) std::cerr << "lip crossing at " << h.point.transpose() << " dir " << h.dir << "\n";
+        continue;
+      }
       std::size_t j = i + 1;
       // Two new crossings close together beside a cut this edge is making: the blade
       // grazes a fold of the surface (a lip the moving tissue curled), not two layers.
@@ -3271,8 +3396,9 @@ struct CutEngine::Impl {
       };
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
           hits[j].dir < 0 && closedObject(h.object) &&
-          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h))) {
+          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h)) && !onStrokeLip(hs, hits[j])) {
         hits[i].used = hits[j].used = true;
+        if (!mayStart(hs, h.object, h.segment, 2)) continue;
         // Upper layer (h0) is the one nearer the edge's far end b.
         {
           CpuTimer timer{stats.remeshSeconds};
@@ -3282,11 +3408,13 @@ struct CutEngine::Impl {
         continue;
       }
       hits[i].used = true;
+      if (!mayStart(hs, h.object, h.segment, 1)) continue;
       startSingle(hs, h);
       hs.tracks.back().startMotion = motionOf(h.segment);
       hs.tracks.back().startBlade = bladeOf(h.segment);
     }
-    std::erase_if(hs.tracks, [](const Track& t) { return !t.alive; });
+    capStrokeGrowth(hs);
+    retireTracks(hs);
     // Separation of freed pieces.
     auto objs = checkSeparation;
     checkSeparation.clear();
@@ -3299,7 +3427,7 @@ struct CutEngine::Impl {
     debugScan("safety net");
     for (int o : objs) separate(o);
     debugScan("separate");
-    for (auto& h : hands) std::erase_if(h.tracks, [](const Track& t) { return !t.alive; });
+    for (auto& h : hands) retireTracks(h);
     for (auto& t : hs.tracks) anchor(t);
     if (report) {
       for (const auto& t : hs.tracks) {
@@ -3363,7 +3491,8 @@ struct CutEngine::Impl {
 CutEngine::CutEngine(CutParams params) : impl_(std::make_unique<Impl>()) {
   if (!(params.snapDistance >= 0.0) || !(params.snapFraction >= 0.0) || params.snapFraction >= 0.5 ||
       !(params.maxSubstep > 0.0) || params.maxSubsteps < 1 || !(params.matchRadius > 0.0) ||
-      !(params.grooveSpacing >= 0.0) || !(params.wallMinAngleDeg >= 0.0) || params.wallMinAngleDeg > 60.0)
+      !(params.grooveSpacing >= 0.0) || !(params.wallMinAngleDeg >= 0.0) || params.wallMinAngleDeg > 60.0 ||
+      params.maxNewTracksPerSample < 1 || params.strokeFacesMin < 0 || !(params.strokeFacesFactor >= 0.0))
     throw CutError("CutParams out of range");
   impl_->p = params;
   (void)timerOverhead();  // calibrated before the first interval
