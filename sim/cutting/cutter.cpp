@@ -2715,6 +2715,18 @@ struct CutEngine::Impl {
     }
   }
 
+  // A separation ended the cuts on obj (endTracksOn) and may have compacted its mesh (new
+  // vertex handles): the strokes forget their cut there, so the blade may start again
+  // next to where the engine, not the tissue, stopped it.
+  void forgetStrokeCuts(int obj) {
+    for (auto& hs : hands) {
+      for (auto& so : hs.stroke)
+        if (so.object == obj) so.cut = VertexSet();
+      for (auto& t : hs.tracks)
+        if (t.object == obj && !t.alive) t.visited = VertexSet();
+    }
+  }
+
   // ---- separation -----------------------------------------------------------------------------
   void endTracksOn(int obj) {
     for (auto& hs : hands)
@@ -2804,6 +2816,7 @@ struct CutEngine::Impl {
         ++stats.separations;
       }
       removePieces(k, c.pieces);
+      forgetStrokeCuts(obj);
     }
     markConnected(k);
   }
@@ -2827,13 +2840,6 @@ struct CutEngine::Impl {
       const mesh::Compaction cm = m.garbageCollection();
       roomToCut(m);
       bvhs[k].remap(m, cm);
-      // Vertex handles changed: the strokes forget their cut on this object.
-      for (auto& hs : hands) {
-        for (auto& so : hs.stroke)
-          if (so.object == objects[k].id) so.cut = VertexSet();
-        for (auto& t : hs.tracks)
-          if (t.object == objects[k].id) t.visited = VertexSet();  // ended (endTracksOn)
-      }
     }
   }
 
