@@ -133,7 +133,7 @@ struct CutStats {
   long longestFront = 0;           // most vertices a cut's front (tip to the other side) has had
   long sliverSnaps = 0;            // points moved onto a vertex because a split there would make a sliver
   long lipCrossings = 0;           // crossings on the lip or wall of the stroke's own cut (a fold): no track started
-  long tracksRefused = 0;          // new tracks refused: over 4 on one object in a sample, or the stroke was capped
+  long tracksRefused = 0;          // new tracks refused: past maxNewTracksPerSample, or on a capped stroke
   long strokeCaps = 0;             // strokes whose cuts were ended for growing an object past their budget
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
   double separationSeconds = 0.0;  // time finding and splitting off freed pieces (local search; rare)
