@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <functional>
 #include <iostream>
@@ -169,12 +168,27 @@ struct Track {
   // that got deeper, or a pierce through both): the paths grow closed until both can
   // open, then openTunnel joins the layers (side walls; the object gets a hole).
   bool tunnel = false;
+  // The walk has reached the wall of an earlier cut (another stroke's slot) and stops
+  // there: when the partner has too, the pair cuts out across that wall.
+  bool atWall = false;
   VertexSet visited;  // path vertices, their copies and this cut's wall apexes
   // start and pending as points of the tissue (set at the end of every sample), and the
   // object's motion count they were taken at: a moved object moves them too.
   Anchor startAt, pendingAt;
   long anchoredAt = -1;
-  Vertex prevTip;  // the path vertex before tip (the cut runs from it to tip)
+  Vertex prevTip;           // the path vertex before tip (the cut runs from it to tip)
+  Vertex first;             // the path's first vertex (a pierce's: the back end of the slot)
+  double pathLength = 0.0;  // along the path so far (extend)
+};
+
+// What one contact of a hand (from the blade's first crossing until it is out of the
+// tissue with no cut open) has done to one object: the vertices its cuts made or
+// walked (the lips and walls of this stroke's cut) and the faces it has added.
+struct StrokeOnObject {
+  int object = -1;
+  VertexSet cut;          // visited vertices of this stroke's tracks that have ended
+  long facesAtStart = 0;  // the object's faces when the stroke first cut it
+  bool capped = false;    // grew past the stroke's budget: no more cutting until it ends
 };
 
 struct HandState {
@@ -182,6 +196,7 @@ struct HandState {
   Tool tool = Tool::Scalpel;
   Pose prev;
   std::vector<Track> tracks;
+  std::vector<StrokeOnObject> stroke;
 };
 
 double scaleOf(const Vec3& p) { return 1.0 + p.cwiseAbs().maxCoeff(); }
@@ -850,11 +865,13 @@ struct CutEngine::Impl {
     mark(tr, N);
     if (!tr.tip.isValid()) {
       tr.tip = N;
+      tr.first = N;
       tr.tipDepth = depthN;
       return true;
     }
     const Vertex v = tr.tip;
     if (N == v) return true;
+    tr.pathLength += (m.position(N) - m.position(v)).norm();
     Track* P = trackById(tr.partner);
     tr.prevTip = v;
     // (assign: the chain keeps its buffer)
@@ -924,7 +941,10 @@ struct CutEngine::Impl {
       double qApex = -1.0;
       if (chain.size() == 1) {
         const Vec3 po = m.position(o);
-        Vec3 want = paired ? Vec3(0.5 * (pN + po)) : depthN;
+        // Between the layers: halfway from N to o, or inside the wall triangle when N and
+        // o are already joined by an edge (both tips on a side face the blade is leaving
+        // along: halfway would sit on that edge and leave the cut-out loop no area).
+        Vec3 want = paired ? (m.findEdge(N, o).isValid() ? Vec3((pv + pN + po) / 3.0) : Vec3(0.5 * (pN + po))) : depthN;
         if (!paired && (depthN - pN).norm() < p.snapDistance) {
           // Keep the groove at least the snapping distance deep (no flat walls).
           const Vec3 n = rawNormal(m, m.face(eOut, 0)).normalized();
@@ -1006,6 +1026,12 @@ struct CutEngine::Impl {
                   << (P ? P->tip : Vertex()) << "\n";
       if (dbg() && !paired && chain.size() == 1)
         std::cerr << "groove step to " << pN.transpose() << " fill " << static_cast<int>(fill) << "\n";
+      if (dbg() && !paired && chain.size() > 1) {
+        std::cerr << "groove chain step " << v << " -> " << N << "(" << pN.transpose() << ") fill "
+                  << static_cast<int>(fill) << " chain";
+        for (Vertex x : chain) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
+        std::cerr << "\n";
+      }
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
         tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
@@ -1170,6 +1196,11 @@ struct CutEngine::Impl {
   // Never under the sliver floor (sliverHeight = 0.6 thr), even on a long front.
   static bool halvesOk(const SurfaceMesh& m, Vertex N, Vertex v, const std::vector<Vertex>& chain, double thr) {
     if (m.findEdge(N, chain.back()).isValid()) return false;
+    // A front that folds back onto itself (a vertex and its copy, e.g. a tunnel's path
+    // left to open as a groove) is not the boundary the halves would close.
+    for (std::size_t i = 0; i < chain.size(); ++i)
+      for (std::size_t j = i + 1; j < chain.size(); ++j)
+        if ((m.position(chain[i]) - m.position(chain[j])).squaredNorm() == 0.0) return false;
     std::vector<Vertex> half{N, v};
     half.insert(half.end(), chain.begin(), chain.end());
     double shortest = std::numeric_limits<double>::infinity();
@@ -1186,13 +1217,24 @@ struct CutEngine::Impl {
   bool fillHalvesAt(int obj, Vertex a, Vertex b, int kind) {
     SurfaceMesh& m = meshOf(obj);
     const Edge be = boundaryEdgeAt(m, a);
-    if (!be.isValid() || m.findEdge(a, b).isValid()) return false;
+    if (!be.isValid() || m.findEdge(a, b).isValid()) {
+      if (dbg()) std::cerr << "fillHalvesAt: no boundary at a or edge a-b\n";
+      return false;
+    }
     std::vector<Vertex> loop = boundaryLoop(m, be, 4 * kLongFront + 16);
     const auto ia = std::find(loop.begin(), loop.end(), a);
-    if (ia == loop.end()) return false;
+    if (ia == loop.end()) {
+      if (dbg()) std::cerr << "fillHalvesAt: a not on loop of " << loop.size() << "\n";
+      return false;
+    }
     std::rotate(loop.begin(), ia, loop.end());
     const auto ib = std::find(loop.begin(), loop.end(), b);
-    if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) return false;
+    if (ib == loop.end() || ib - loop.begin() < 2 || loop.end() - ib < 2) {
+      if (dbg())
+        std::cerr << "fillHalvesAt: b not across the loop of " << loop.size() << " (at " << (ib - loop.begin())
+                  << ")\n";
+      return false;
+    }
     // Each half starts after a loop edge, so that its first triangle (on the closing
     // edge: last vertex, first) takes its orientation from the face already there.
     std::vector<Vertex> h1(loop.begin() + 1, ib + 1), h2(ib + 1, loop.end());
@@ -1210,6 +1252,7 @@ struct CutEngine::Impl {
             return x != y && !m.findEdge(x, y).isValid();
           },
           tris);
+      if (dbg()) std::cerr << "fillHalvesAt: half of " << h->size() << " quality " << q << "\n";
       bool ok = q > -std::numeric_limits<double>::infinity();
       for (std::size_t t = 0; ok && t < tris.size(); ++t) {
         const auto& tri = tris[t];
@@ -1783,8 +1826,10 @@ struct CutEngine::Impl {
   // lies in a face around the current vertex (or the goal vertex is a neighbour).
   // With `collect`, the new vertices are only inserted and listed (the cut does not
   // open along them yet).
+  Edge walkBlockedAt;  // the edge whose crossing stopped the last walk next to the cut
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
+    walkBlockedAt = Edge();
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
     // depth0 belongs to the last sampled point (the pending one, else the tip): the
     // depth at a crossing is interpolated between the two samples around it, so it does
@@ -1891,7 +1936,14 @@ struct CutEngine::Impl {
         const Edge e = m.findEdge(best.a, best.b);
         bool blocked = false;
         N = edgeSnap(m, e, best.q, &tr.visited, &blocked);
-        if (blocked) return false;  // would touch the cut itself
+        if (blocked) {  // would touch the cut itself
+          // ... unless that is where the walk goes (a cut joining its own start).
+          if (goal.toVertex && (m.vertex(e, 0) == goal.vertex || m.vertex(e, 1) == goal.vertex) &&
+              m.findEdge(v, goal.vertex).isValid())
+            return true;
+          walkBlockedAt = e;
+          return false;
+        }
         if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.q);
         ++stats.trianglesCut;
         ++res->trianglesCut;
@@ -1905,6 +1957,9 @@ struct CutEngine::Impl {
       }
       extend(tr, N, depth);
       if (tr.tip != N) return false;
+      // A cut-through stops on the wall of another cut (it would walk down that wall
+      // to the other layer): advance waits there for the partner (onEarlierWall).
+      if (tr.partner >= 0 && !tr.tunnel && onEarlierWall(tr)) return false;
     }
     return false;
   }
@@ -2047,6 +2102,56 @@ struct CutEngine::Impl {
     return true;
   }
 
+  bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
+  // The track's tip is on a wall of another cut (a wall face not of this cut).
+  bool onEarlierWall(const Track& tr) const {
+    if (tr.partner < 0 || !tr.tip.isValid()) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    if (!kind || !m.isValid(tr.tip)) return false;
+    for (Face f : m.faces(tr.tip)) {
+      if (kind[f] == kSurface) continue;
+      for (Vertex x : m.vertices(f))
+        if (!tr.visited.count(x)) return true;
+    }
+    return false;
+  }
+
+  // Both tips on one wall of another cut, across it from each other: the front between
+  // them lies along that wall (in the plane of a wall face at each tip).
+  bool acrossWall(const Track& A, const Track& B) const {
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(A.object))].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const Vec3 d = m.position(B.tip) - m.position(A.tip);
+    if (!kind || !(d.norm() > 0.0) || d.norm() > 4.0 * p.matchRadius) return false;
+    auto along = [&](const Track& T) {
+      for (Face f : m.faces(T.tip)) {
+        if (kind[f] == kSurface) continue;
+        bool own = true;
+        for (Vertex x : m.vertices(f)) own = own && T.visited.count(x);
+        if (!own && std::abs(rawNormal(m, f).normalized().dot(d.normalized())) < 0.25) return true;
+      }
+      return false;
+    };
+    if (!along(A) || !along(B)) return false;
+    // ... and on one wall: B's tip is a corner of A's wall faces' connected neighbours
+    // (wall faces of other cuts, a few hundred at most).
+    std::vector<Face> todo, seen;
+    for (Face f : m.faces(A.tip))
+      if (kind[f] != kSurface) todo.push_back(f);
+    while (!todo.empty() && seen.size() < 256) {
+      const Face f = todo.back();
+      todo.pop_back();
+      if (std::find(seen.begin(), seen.end(), f) != seen.end()) continue;
+      seen.push_back(f);
+      if (m.localIndex(f, B.tip) >= 0) return true;
+      for (Vertex x : m.vertices(f))
+        for (Face g : m.faces(x))
+          if (kind[g] != kSurface && std::find(seen.begin(), seen.end(), g) == seen.end()) todo.push_back(g);
+    }
+    return false;
+  }
+
   void advance(Track& tr, Hit& h, const Vec3& bladeDir) {
     SurfaceMesh& m0 = meshOf(tr.object);
     tr.pendingFace = Face();
@@ -2087,6 +2192,42 @@ struct CutEngine::Impl {
       g.point = h.point;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
+    }
+    if (!ok && walkBlockedAt.isValid()) {
+      // The crossing has reached the other layer's tip (both layers leave over the
+      // same side, and the other got there first): nothing is left to cut on this side
+      // of it; the track waits for the cut-out.
+      const SurfaceMesh& mb = meshOf(tr.object);
+      // Likewise at the cut's own start (a pierce coming round to it): it joins there
+      // when it ends (joinStart).
+      auto at = [&](Vertex x) {
+        return x.isValid() && (mb.vertex(walkBlockedAt, 0) == x || mb.vertex(walkBlockedAt, 1) == x);
+      };
+      if (const Track* P = trackById(tr.partner);
+          P && P->tip.isValid() && mb.isValid(walkBlockedAt) && (at(P->tip) || at(tr.first) || at(P->first))) {
+        if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
+        ++stats.holds;
+        return;
+      }
+    }
+    if (!ok && !tr.tunnel && onEarlierWall(tr) &&
+        (h.point - meshOf(tr.object).position(tr.tip)).norm() <= p.matchRadius) {
+      // An earlier cut's wall ahead (its slot is closed: the walls coincide): wait
+      // there for the other layer; once both are on it, cut out across it.
+      if (dbg()) std::cerr << "advance: track " << tr.id << " at an earlier cut's wall\n";
+      tr.atWall = true;
+      Track* P = trackById(tr.partner);
+      if (!P || !P->atWall) {
+        ++stats.holds;
+        return;
+      }
+      if (acrossWall(tr, *P)) {
+        SurfaceMesh& mw = meshOf(tr.object);
+        wallCutOut = true;
+        cutOut(tr, *P, h.point - mw.position(tr.tip));
+        wallCutOut = false;
+        return;
+      }
     }
     if (!ok) {
       if (dbg()) {
@@ -2164,10 +2305,13 @@ struct CutEngine::Impl {
   // pair until both layers made their last step (side walls to the end).
   void terminateAll(HandState& hs) {
     for (auto& t : hs.tracks)
+      if (Track* P = trackById(t.partner); t.alive && P) joinStart(t.dir < 0 ? t : *P, t.dir < 0 ? *P : t);
+    for (auto& t : hs.tracks)
       if (t.alive) terminate(t, Vec3::Zero(), Vec3::Zero(), false);
     for (auto& t : hs.tracks)
       if (t.alive) end(t);
     hs.tracks.clear();
+    hs.stroke.clear();
   }
 
   void end(Track& tr) {
@@ -2180,10 +2324,64 @@ struct CutEngine::Impl {
     tr.partner = -1;
   }
 
+  // A cut-through from a pierce (tunnel) that has come round to its own start: each
+  // layer's path is walked on to its first vertex (the back end of the slot, where
+  // the two layers' first vertices are joined by the slot's last rung), and the loop
+  // tips - starts - the rung - front is cut and closed like a cut-out: what it encloses
+  // comes free.
+  bool joinStart(Track& A, Track& B) {
+    if (!A.alive || !B.alive || A.tunnel || B.tunnel || !A.tip.isValid() || !B.tip.isValid()) return false;
+    SurfaceMesh& m = meshOf(A.object);
+    if (!m.isValid(A.first) || !m.isValid(B.first) || A.first == B.first || A.tip == A.first || B.tip == B.first ||
+        !m.findEdge(A.first, B.first).isValid() || !closedObject(A.object))
+      return false;
+    if (A.chain.empty() || A.chain.back() != B.tip) return false;
+    const Vec3 pa = m.position(A.tip), pb = m.position(B.tip);
+    // Near the start after going round (a short slot's tip is near its start too).
+    if ((m.position(A.first) - pa).norm() > p.matchRadius || (m.position(B.first) - pb).norm() > p.matchRadius ||
+        std::min(A.pathLength, B.pathLength) < 4.0 * p.matchRadius)
+      return false;
+    if (dbg()) std::cerr << "joinStart tracks " << A.id << "," << B.id << "\n";
+    auto walkTo = [&](Track& T, Vertex goalV, const Vec3& across, std::vector<Vertex>& path) {
+      const Vertex start = T.tip;
+      const Vec3 from = m.position(start), to = m.position(goalV);
+      path.assign({start});
+      const Vec3 n = sweepNormal(from, to, across, across);
+      if (n.isZero()) return false;
+      WalkGoal g;
+      g.toVertex = true;
+      g.vertex = goalV;
+      const bool hadPending = T.hasPending;
+      T.hasPending = false;
+      const bool ok = walk(T, g, n, (to - from).normalized(), 3.0 * (to - from).norm() + 2.0 * p.matchRadius,
+                           T.tipDepth, T.tipDepth, &path);
+      T.tip = start;
+      T.hasPending = hadPending;
+      return ok && T.alive;
+    };
+    std::vector<Vertex> pathA, pathB;
+    if (!walkTo(A, A.first, pb - pa, pathA) || !walkTo(B, B.first, pa - pb, pathB)) {
+      if (dbg()) std::cerr << "joinStart: walk failed\n";
+      return false;
+    }
+    // A.tip ... A.first, B.first ... B.tip, then the front back toward A.tip.
+    std::vector<Vertex> loop = pathA;
+    loop.push_back(A.first);
+    loop.push_back(B.first);
+    loop.insert(loop.end(), pathB.rbegin(), pathB.rend());
+    for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
+    if (!closeLoop(A, loop, false)) return false;
+    checkSeparation.push_back(A.object);
+    end(A);
+    end(B);
+    return true;
+  }
+
   // Both layers of a cut-through lost the blade in the same sample: if it left
   // through the side (moving on, not lifted), finish the cut around that side and
   // join the two layers (cut-out).
   void cutOut(Track& A, Track& B, const Vec3& motion) {
+    if (joinStart(A, B)) return;
     bool done = false;
     if (dbg()) {
       std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << " tips " << A.tip
@@ -2212,7 +2410,12 @@ struct CutEngine::Impl {
         A.hasPending = B.hasPending = false;
         const Vertex start = A.tip;
         std::vector<Vertex> path{start};
-        const bool walked = walk(A, g, n, motion.normalized(), maxLen, A.tipDepth, A.tipDepth, &path);
+        // The first step goes on with the motion (over the far edge) and toward B's tip:
+        // a tilted blade may have taken A's tip over the edge and down the far side
+        // already, where going on is square to the side and only B's tip tells which way.
+        const Vec3 first = (motion.normalized() + (pb - pa).normalized()).normalized();
+        const bool walked =
+            walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen, A.tipDepth, A.tipDepth, &path);
         if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
         if (walked && A.alive) {
           A.tip = start;
@@ -2239,15 +2442,26 @@ struct CutEngine::Impl {
   // The cut-out path (A's tip ... a neighbour of B's tip) and the front (A's tip,
   // chain ..., B's tip) form a closed loop: cut along all of it and close both sides.
   bool close(Track& A, Track& B, const std::vector<Vertex>& path) {
-    SurfaceMesh& m = meshOf(A.object);
     std::vector<Vertex> loop = path;
     loop.push_back(B.tip);
     for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
     // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
+    return closeLoop(A, loop, !wallCutOut);
+  }
+
+  // Cuts along a closed loop of edges through both layers and closes both sides with
+  // side walls. `mayOpenRung`: a loop without area may open the front's rung (cut-out).
+  bool closeLoop(Track& A, const std::vector<Vertex>& loop, bool mayOpenRung) {
+    SurfaceMesh& m = meshOf(A.object);
     std::vector<Edge> cuts;
     for (std::size_t i = 0; i < loop.size(); ++i) {
       const Edge e = m.findEdge(loop[i], loop[(i + 1) % loop.size()]);
-      if (!e.isValid()) return false;
+      if (!e.isValid()) {
+        if (dbg())
+          std::cerr << "close: no edge " << loop[i] << " - " << loop[(i + 1) % loop.size()] << " in a loop of "
+                    << loop.size() << "\n";
+        return false;
+      }
       cuts.push_back(e);
     }
     {
@@ -2258,8 +2472,9 @@ struct CutEngine::Impl {
       // rim that is a thin crescent whatever the triangulation, and refusing it leaves
       // the piece attached. Only a degenerate loop is refused, unless the tips are on
       // the far side already (snapped onto its edge: the walk runs down the rung).
+      if (wallCutOut && !(q >= sliverHeight())) return false;
       if (!(q > 1e-3 * p.snapDistance)) {
-        if (A.chain.size() != 1 || !openRung(A.object, loop)) return false;
+        if (!mayOpenRung || !openRung(A.object, loop)) return false;
         cuts.pop_back();  // gone with its faces
       }
     }
@@ -2296,8 +2511,17 @@ struct CutEngine::Impl {
     const std::array<Face, 2> walls{m.face(rung, 0), m.face(rung, 1)};
     for (Face f : walls) {
       std::vector<Vertex> hole{m.oppositeVertex(f, rung)};
-      if (std::find(loop.begin(), loop.end(), hole[0]) != loop.end()) return false;
+      if (std::find(loop.begin(), loop.end(), hole[0]) != loop.end()) {
+        if (dbg()) std::cerr << "openRung: far corner on the loop\n";
+        return false;
+      }
       hole.insert(hole.end(), loop.begin(), loop.end());
+      if (dbg()) {
+        std::cerr << "openRung: hole quality " << loopQuality(m, hole) << " kind "
+                  << m.getFaceProperty<int>(kFaceKindProp)[f] << ":";
+        for (Vertex x : hole) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
+        std::cerr << "\n";
+      }
       if (!(loopQuality(m, hole) > 1e-3 * p.snapDistance)) return false;
     }
     for (Face f : walls) m.deleteFace(f);
@@ -2408,8 +2632,15 @@ struct CutEngine::Impl {
       WalkGoal g;
       g.point = h0.point;
       std::vector<Vertex> path;
+      // The first step goes back against the motion (around the edge the blade came
+      // over) and toward the other crossing: when the blade is tilted back, the lower
+      // crossing is on the side face the blade came through, where going back is
+      // square to the face and only the other crossing tells up from down.
+      Vec3 first = -motion.normalized();
+      if ((h0.point - from).norm() > 1e-12) first += (h0.point - from).normalized();
+      if (first.norm() < 1e-9) first = -motion;
       ok = !n2.isZero() &&
-           walk(a, g, n2, -motion.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
+           walk(a, g, n2, first.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
                 h0.depth, h0.depth, &path);
       a.pending = h0.point;
       a.pendingDepth = h0.depth;
@@ -2515,6 +2746,111 @@ struct CutEngine::Impl {
     hs.tracks.push_back(newTrack(h));
   }
 
+  // ---- one stroke's own cut, and the guards against a runaway ---------------------------------
+  StrokeOnObject& strokeOn(HandState& hs, int obj) {
+    for (auto& so : hs.stroke)
+      if (so.object == obj) return so;
+    StrokeOnObject so;
+    so.object = obj;
+    so.facesAtStart = static_cast<long>(meshOf(obj).nFaces());
+    hs.stroke.push_back(std::move(so));
+    return hs.stroke.back();
+  }
+  // Ended tracks leave the hand; what they cut stays part of the stroke's cut.
+  void retireTracks(HandState& hs) {
+    for (auto& t : hs.tracks)
+      if (!t.alive) {
+        StrokeOnObject& so = strokeOn(hs, t.object);
+        t.visited.forEach([&](Vertex x) { so.cut.insert(x); });
+      }
+    std::erase_if(hs.tracks, [](const Track& t) { return !t.alive; });
+  }
+
+  int kindOf(const Hit& h) const {
+    const int k = indexOf(h.object);
+    if (k < 0) return kSurface;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(k)].mesh;
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    return kind && m.isValid(h.face) ? kind[h.face] : kSurface;
+  }
+  // A crossing on a lip or wall of the cut this stroke has made: its face has a corner
+  // on that cut which no track of the hand goes on from (not a tip). That is the cut's
+  // own edge, which the moving tissue has curled into the blade's way (a fold), not new
+  // tissue: it opens no track. (The 0.5 mm fold rule only kept two such crossings side
+  // by side from pairing; each still started a groove in the lip, and with crossings
+  // matched along their way and slid groove bottoms that ran away: ~850 tracks in 25 s
+  // on slab-straight-line with physics.)
+  bool onStrokeLip(const HandState& hs, const Hit& h) const {
+    const int k = indexOf(h.object);
+    if (k < 0) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(k)].mesh;
+    if (!m.isValid(h.face)) return false;
+    const StrokeOnObject* so = nullptr;
+    for (const auto& x : hs.stroke)
+      if (x.object == h.object) so = &x;
+    for (Vertex c : m.vertices(h.face)) {
+      bool cut = so && so->cut.count(c), tip = false;
+      for (const Track& t : hs.tracks) {
+        if (t.object != h.object) continue;
+        if (t.tip == c) tip = true;
+        cut = cut || t.visited.count(c);
+      }
+      if (cut && !tip) return true;
+    }
+    return false;
+  }
+
+  // May n new tracks of this cutting edge start on obj in this sample? Not past
+  // CutParams::maxNewTracksPerSample (the default, four, is two pairs: an edge through
+  // both layers of a slab and of a piece folded over it; more is a crumpled surface),
+  // nor on an object the stroke has grown past its budget. CutStats::tracksRefused.
+  struct NewTracks {
+    int object, segment, count;
+  };
+  std::vector<NewTracks> newTracksBuf;  // tracks started in this sample
+  bool mayStart(HandState& hs, int obj, int segment, int n) {
+    StrokeOnObject& so = strokeOn(hs, obj);
+    auto it = std::find_if(newTracksBuf.begin(), newTracksBuf.end(),
+                           [&](const NewTracks& x) { return x.object == obj && x.segment == segment; });
+    if (it == newTracksBuf.end()) it = newTracksBuf.insert(newTracksBuf.end(), {obj, segment, 0});
+    if (so.capped || it->count + n > p.maxNewTracksPerSample) {
+      if (dbg()) std::cerr << "refused " << n << " new track(s) on object " << obj << "\n";
+      stats.tracksRefused += n;
+      return false;
+    }
+    it->count += n;
+    return true;
+  }
+
+  // A stroke that has grown an object past its budget ends its cuts there.
+  void capStrokeGrowth(HandState& hs) {
+    for (auto& so : hs.stroke) {
+      const int k = indexOf(so.object);
+      if (so.capped || k < 0) continue;
+      const long grown = static_cast<long>(objects[static_cast<std::size_t>(k)].mesh.nFaces()) - so.facesAtStart;
+      const double budget =
+          std::max(static_cast<double>(p.strokeFacesMin), p.strokeFacesFactor * static_cast<double>(so.facesAtStart));
+      if (static_cast<double>(grown) <= budget) continue;
+      if (dbg()) std::cerr << "stroke capped on object " << so.object << " after " << grown << " new faces\n";
+      so.capped = true;
+      ++stats.strokeCaps;
+      for (auto& t : hs.tracks)
+        if (t.alive && t.object == so.object) terminate(t);
+    }
+  }
+
+  // A separation ended the cuts on obj (endTracksOn) and may have compacted its mesh (new
+  // vertex handles): the strokes forget their cut there, so the blade may start again
+  // next to where the engine, not the tissue, stopped it.
+  void forgetStrokeCuts(int obj) {
+    for (auto& hs : hands) {
+      for (auto& so : hs.stroke)
+        if (so.object == obj) so.cut = VertexSet();
+      for (auto& t : hs.tracks)
+        if (t.object == obj && !t.alive) t.visited = VertexSet();
+    }
+  }
+
   // ---- separation -----------------------------------------------------------------------------
   void endTracksOn(int obj) {
     for (auto& hs : hands)
@@ -2604,6 +2940,7 @@ struct CutEngine::Impl {
         ++stats.separations;
       }
       removePieces(k, c.pieces);
+      forgetStrokeCuts(obj);
     }
     markConnected(k);
   }
@@ -2708,6 +3045,56 @@ struct CutEngine::Impl {
   }
 
   // Per-sample work lists, kept between samples (no allocation once warm).
+  // Where the track's crossing has gone if the surface around it is flat: the new
+  // edge meets the plane of the face holding the last point there. A blade nearly
+  // parallel to that face (a tilted blade on an object's side face) moves its crossing
+  // many times as fast as itself (1 / sin of the angle); tracks are matched along the
+  // way from the last point to there (at most `reach` beyond the usual radius).
+  Vec3 crossingAhead(const Track& t, const Vec3& at, const instruments::Segment& s, double radius) {
+    const SurfaceMesh& m = meshOf(t.object);
+    Face f = t.tip.isValid() ? t.pendingFace : t.startFace;
+    if (t.tip.isValid() && (!m.isValid(f) || m.localIndex(f, t.tip) < 0 || !pointInFace(m, f, at, 1e-6))) {
+      f = Face();
+      for (Face g : m.faces(t.tip))
+        if (pointInFace(m, g, at, 1e-6)) {
+          f = g;
+          break;
+        }
+    }
+    if (!m.isValid(f)) return at;
+    const Vec3 nf = rawNormal(m, f);
+    const Vec3 ab = s.b - s.a;
+    const double den = nf.dot(ab);
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
+    const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
+    Vec3 q = s.a + u * ab;
+    const double reach = 8.0 * radius, d = (q - at).norm();
+    if (d > reach) q = at + (q - at) * (reach / d);
+    return q;
+  }
+  // The other way round: where the previous edge met the plane of the face holding a
+  // new crossing (a track's crossing that went over an edge of the object onto a face
+  // the blade is nearly parallel to runs on along it, up to `reach` beyond the radius).
+  Vec3 crossingBehind(const Hit& h, const instruments::Segment& prev, double radius) {
+    const SurfaceMesh& m = meshOf(h.object);
+    if (!m.isValid(h.face)) return h.point;
+    const Vec3 nf = rawNormal(m, h.face);
+    const Vec3 ab = prev.b - prev.a;
+    const double den = nf.dot(ab);
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return h.point;
+    const double u = std::clamp(nf.dot(h.point - prev.a) / den, 0.0, 1.0);
+    Vec3 q = prev.a + u * ab;
+    const double reach = 8.0 * radius, d = (q - h.point).norm();
+    if (d > reach) q = h.point + (q - h.point) * (reach / d);
+    return q;
+  }
+  static double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
+    const Vec3 ab = b - a;
+    const double l2 = ab.squaredNorm();
+    const double u = l2 > 0.0 ? std::clamp((x - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+    return (x - (a + u * ab)).norm();
+  }
+
   struct Pair {
     double d;
     std::size_t track, hit;
@@ -3020,6 +3407,10 @@ struct CutEngine::Impl {
       terminateAll(hs);
       return;
     }
+    newTracksBuf.clear();
+    // Out of the tissue with no cut open: the stroke is over (its own cut is any tissue now).
+    if (hits.empty() && std::none_of(hs.tracks.begin(), hs.tracks.end(), [](const Track& t) { return t.alive; }))
+      hs.stroke.clear();
     std::vector<instruments::Segment> prevSegs;
     if (prevPose) prevSegs = instruments::segments(tool, *prevPose, p.tool);
     auto motionOf = [&](int s) -> Vec3 {
@@ -3042,10 +3433,14 @@ struct CutEngine::Impl {
       if (!t.alive) continue;
       const Vec3 at = t.hasPending ? t.pending : t.start;
       const double radius = p.matchRadius + 2.0 * motionOf(t.segment).norm();
+      const Vec3 ahead = crossingAhead(t, at, segs[static_cast<std::size_t>(t.segment)], radius);
       for (std::size_t hi = 0; hi < hits.size(); ++hi) {
         const Hit& h = hits[hi];
         if (h.object != t.object || h.segment != t.segment || h.dir != t.dir) continue;
-        const double d = (h.point - at).norm();
+        double d = distanceToSegment(h.point, at, ahead);
+        if (d > radius && prevSegs.size() == segs.size())
+          d = std::min(d, distanceToSegment(
+                              at, crossingBehind(h, prevSegs[static_cast<std::size_t>(t.segment)], radius), h.point));
         if (d <= radius) pairs.push_back({d, ti, hi});
       }
     }
@@ -3114,6 +3509,7 @@ struct CutEngine::Impl {
     }
     for (const Deep& d : deepBuf) {
       hits[d.hit].used = true;
+      if (!mayStart(hs, hits[d.hit].object, hits[d.hit].segment, 1)) continue;
       const bool swept = d.fraction <= 1.0;
       deepen(hs, static_cast<std::size_t>(d.track), hits[d.hit], swept ? &d.from : nullptr, swept ? &d.to : nullptr);
     }
@@ -3167,6 +3563,15 @@ struct CutEngine::Impl {
     for (std::size_t i = 0; i < hits.size(); ++i) {
       if (hits[i].used) continue;
       const Hit& h = hits[i];
+      // (A track that could not walk to its crossing restarts there: on the surface that
+      // is the cut going on past a corner it could not take, so the lip rule spares it.)
+      const bool restart = trackOfHit[i] >= 0 && kindOf(h) == kSurface;
+      if (!restart && onStrokeLip(hs, h)) {
+        hits[i].used = true;
+        ++stats.lipCrossings;
+        if (dbg()) std::cerr << "lip crossing at " << h.point.transpose() << " dir " << h.dir << "\n";
+        continue;
+      }
       std::size_t j = i + 1;
       // Two new crossings close together beside a cut this edge is making: the blade
       // grazes a fold of the surface (a lip the moving tissue curled), not two layers.
@@ -3177,8 +3582,9 @@ struct CutEngine::Impl {
       };
       if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
           hits[j].dir < 0 && closedObject(h.object) &&
-          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h))) {
+          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h)) && !onStrokeLip(hs, hits[j])) {
         hits[i].used = hits[j].used = true;
+        if (!mayStart(hs, h.object, h.segment, 2)) continue;
         // Upper layer (h0) is the one nearer the edge's far end b.
         {
           CpuTimer timer{stats.remeshSeconds};
@@ -3188,11 +3594,13 @@ struct CutEngine::Impl {
         continue;
       }
       hits[i].used = true;
+      if (!mayStart(hs, h.object, h.segment, 1)) continue;
       startSingle(hs, h);
       hs.tracks.back().startMotion = motionOf(h.segment);
       hs.tracks.back().startBlade = bladeOf(h.segment);
     }
-    std::erase_if(hs.tracks, [](const Track& t) { return !t.alive; });
+    capStrokeGrowth(hs);
+    retireTracks(hs);
     // Separation of freed pieces.
     auto objs = checkSeparation;
     checkSeparation.clear();
@@ -3205,7 +3613,7 @@ struct CutEngine::Impl {
     debugScan("safety net");
     for (int o : objs) separate(o);
     debugScan("separate");
-    for (auto& h : hands) std::erase_if(h.tracks, [](const Track& t) { return !t.alive; });
+    for (auto& h : hands) retireTracks(h);
     for (auto& t : hs.tracks) anchor(t);
     if (report) {
       for (const auto& t : hs.tracks) {
@@ -3270,7 +3678,8 @@ struct CutEngine::Impl {
 CutEngine::CutEngine(CutParams params) : impl_(std::make_unique<Impl>()) {
   if (!(params.snapDistance >= 0.0) || !(params.snapFraction >= 0.0) || params.snapFraction >= 0.5 ||
       !(params.maxSubstep > 0.0) || params.maxSubsteps < 1 || !(params.matchRadius > 0.0) ||
-      !(params.grooveSpacing >= 0.0) || !(params.wallMinAngleDeg >= 0.0) || params.wallMinAngleDeg > 60.0)
+      !(params.grooveSpacing >= 0.0) || !(params.wallMinAngleDeg >= 0.0) || params.wallMinAngleDeg > 60.0 ||
+      params.maxNewTracksPerSample < 1 || params.strokeFacesMin < 0 || !(params.strokeFacesFactor >= 0.0))
     throw CutError("CutParams out of range");
   impl_->p = params;
   (void)timerOverhead();  // calibrated before the first interval
@@ -3361,10 +3770,18 @@ StepResult CutEngine::endStroke(Hand hand) {
   Impl& I = *impl_;
   HandState& hs = I.hands[handIndex(hand)];
   return I.run([&] {
-    CpuTimer timer{I.stats.remeshSeconds};
-    I.terminateAll(hs);
-    hs.hasPrev = false;
-    I.fixPinches();
+    {
+      CpuTimer timer{I.stats.remeshSeconds};
+      I.terminateAll(hs);
+      hs.hasPrev = false;
+      I.fixPinches();
+    }
+    // A cut joined to its own start as the hand lifted may have freed a piece.
+    auto objs = I.checkSeparation;
+    I.checkSeparation.clear();
+    std::sort(objs.begin(), objs.end());
+    objs.erase(std::unique(objs.begin(), objs.end()), objs.end());
+    for (int o : objs) I.separate(o);
   });
 }
 

@@ -56,6 +56,14 @@ struct CutParams {
   double matchRadius = 2.0;
   // Open (non-closed) meshes are sheets: cut without groove or side walls.
   bool wallsOnOpenMeshes = false;
+  // Guards against a runaway (CutStats::tracksRefused, strokeCaps; nothing is thrown):
+  // at most this many new tracks of one cutting edge on one object in one sample, and a
+  // stroke (one contact of a hand) adds at most max(strokeFacesMin, strokeFacesFactor x
+  // the faces the object had when the stroke first cut it) faces to an object; past
+  // that its cuts there end and it starts none until the blade is out of the tissue.
+  int maxNewTracksPerSample = 4;
+  long strokeFacesMin = 4096;
+  double strokeFacesFactor = 1.0;
   instruments::Settings tool;
   // Physics hooks: when the mesh carries the tissue properties (physics::
   // hasTissueProperties), new vertices and edges are initialised with these.
@@ -124,6 +132,9 @@ struct CutStats {
   long bottomSlides = 0;           // groove-bottom vertices moved on along the groove (instead of new ones)
   long longestFront = 0;           // most vertices a cut's front (tip to the other side) has had
   long sliverSnaps = 0;            // points moved onto a vertex because a split there would make a sliver
+  long lipCrossings = 0;           // crossings on the lip or wall of the stroke's own cut (a fold): no track started
+  long tracksRefused = 0;          // new tracks refused: past maxNewTracksPerSample, or on a capped stroke
+  long strokeCaps = 0;             // strokes whose cuts were ended for growing an object past their budget
   double remeshSeconds = 0.0;      // time in topology edits (walks, splits, walls), collision queries excluded
   double separationSeconds = 0.0;  // time finding and splitting off freed pieces (local search; rare)
   double collisionSeconds = 0.0;   // time in collision queries (BVH sync/refit and segment queries)

@@ -463,10 +463,92 @@ TEST(CutterPhysics, PreStretchedSlabOpensAlongACut) {
   EXPECT_TRUE(e.objects()[0].mesh.validate().ok());
 }
 
+// An open sheet folded eight times (an accordion of layers 0.5 mm apart, joined at
+// alternate ends), one object: a blade through all of it crosses eight layers at once.
+mesh::SurfaceMesh accordion(int layers) {
+  mesh::SurfaceMesh m;
+  const int nx = 10, ny = 10;
+  std::vector<Vec3> line;  // the fold line in xz
+  for (int l = 0; l < layers; ++l)
+    for (int i = 0; i <= nx; ++i) {
+      const double x = l % 2 == 0 ? i : nx - i;
+      if (l > 0 && i == 0) continue;  // (shared with the fold)
+      line.emplace_back(x, 0.0, 0.5 * l);
+      if (i == nx && l + 1 < layers) line.emplace_back(x + (l % 2 == 0 ? 0.25 : -0.25), 0.0, 0.5 * l + 0.25);
+    }
+  std::vector<std::vector<mesh::Vertex>> grid(line.size());
+  for (std::size_t k = 0; k < line.size(); ++k)
+    for (int j = 0; j <= ny; ++j) grid[k].push_back(m.addVertex(line[k] + Vec3(0, j, 0)));
+  for (std::size_t k = 0; k + 1 < line.size(); ++k)
+    for (std::size_t j = 0; j < static_cast<std::size_t>(ny); ++j) {
+      m.addFace(grid[k][j], grid[k + 1][j], grid[k + 1][j + 1]);
+      m.addFace(grid[k][j], grid[k + 1][j + 1], grid[k][j + 1]);
+    }
+  return m;
+}
+
+// Guard: one sample starts at most CutParams::maxNewTracksPerSample tracks of an edge on
+// an object (the rest wait for the next sample), and says so in CutStats.
+TEST(CutterGuards, ASampleStartsAtMostFourTracksOfAnEdgeOnAnObject) {
+  CutEngine e;
+  e.addObject(accordion(8));
+  ASSERT_TRUE(e.objects()[0].mesh.validate().ok());
+  const Vec3 down(0, 0, -1), along(0, 1, 0);
+  e.step(instruments::Hand::Right, instruments::Tool::Scalpel, test::scalpel(Vec3(4.3, 2.2, -1), down, along));
+  EXPECT_EQ(e.stats().tracks, 4);
+  EXPECT_EQ(e.stats().tracksRefused, 4);
+  e.step(instruments::Hand::Right, instruments::Tool::Scalpel, test::scalpel(Vec3(4.3, 2.3, -1), down, along));
+  EXPECT_EQ(e.stats().tracks, 8) << "the other four layers start in the next sample";
+  EXPECT_EQ(e.stats().tracksRefused, 4);
+  for (int i = 1; i <= 50; ++i)
+    e.step(instruments::Hand::Right, instruments::Tool::Scalpel,
+           test::scalpel(Vec3(4.3, 2.3 + 0.1 * i, -1), down, along));
+  e.endStroke(instruments::Hand::Right);
+  expectSound(e, false);
+  EXPECT_EQ(e.stats().tracks, 8);
+  EXPECT_EQ(e.stats().walkFailures, 0);
+  EXPECT_GE(e.stats().trianglesCut, 8 * 5) << "every layer is cut along the stroke";
+}
+
+// Guard: a stroke that grows an object past max(strokeFacesMin, strokeFacesFactor x its
+// faces) ends its cuts there and starts none until the blade is out (CutStats), without
+// throwing; the next stroke cuts again.
+TEST(CutterGuards, AStrokeThatOutgrowsItsBudgetEndsItsCuts) {
+  CutParams params;
+  params.strokeFacesMin = 24;
+  params.strokeFacesFactor = 0.0;
+  CutEngine e(params);
+  e.addObject(slab());
+  const auto f0 = static_cast<long>(e.objects()[0].mesh.nFaces());
+  test::stroke(e, Vec3(1.5, 5.3, 1), Vec3(8.5, 5.3, 1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  EXPECT_EQ(e.stats().strokeCaps, 1);
+  EXPECT_GT(e.stats().tracksRefused, 0) << "the blade stayed in the tissue";
+  const long grown = static_cast<long>(e.objects()[0].mesh.nFaces()) - f0;
+  EXPECT_GT(grown, 24);
+  EXPECT_LT(grown, 24 + 20) << "the cuts ended in the sample that passed the budget";
+  // Without the budget the same stroke adds more.
+  CutEngine unbounded;
+  unbounded.addObject(slab());
+  test::stroke(unbounded, Vec3(1.5, 5.3, 1), Vec3(8.5, 5.3, 1), Vec3(0, 0, -1), 20.0, 1000.0);
+  EXPECT_GT(static_cast<long>(unbounded.objects()[0].mesh.nFaces()) - f0, grown + 20);
+  EXPECT_EQ(unbounded.stats().strokeCaps, 0);
+  // A new stroke has a budget of its own.
+  const long cut = e.stats().trianglesCut;
+  test::stroke(e, Vec3(5.2, 1.5, 1), Vec3(5.2, 3.5, 1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  EXPECT_GT(e.stats().trianglesCut, cut);
+}
+
 TEST(Cutter, RejectsBadInput) {
   CutParams bad;
   bad.snapDistance = -1.0;
   EXPECT_THROW(CutEngine{bad}, CutError);
+  for (int k = 0; k < 3; ++k) {
+    CutParams g;
+    if (k == 0) g.maxNewTracksPerSample = 0;
+    if (k == 1) g.strokeFacesMin = -1;
+    if (k == 2) g.strokeFacesFactor = std::nan("");
+    EXPECT_THROW(CutEngine{g}, CutError);
+  }
   CutEngine e;
   EXPECT_THROW((void)e.object(42), CutError);
   instruments::Pose p;

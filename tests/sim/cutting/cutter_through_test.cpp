@@ -213,3 +213,65 @@ TEST(CutterThrough, OrganGrooveGoesThroughTheUnderside) {
 
 }  // namespace
 }  // namespace ld::cutting
+
+namespace ld::cutting {
+namespace {
+
+// A circle cut out from the middle: the blade pierces both layers at the start, goes
+// round and comes back to where it began (or 10 degrees on, over its start); the cut
+// joins its own start (the slot's back end) as the hand lifts, and the disc comes free.
+TEST(CutterThrough, CircleFromAPierceFreesTheDiscWhenItClosesOnItsStart) {
+  for (const int extra : {0, 2}) {
+    SCOPED_TRACE(extra);
+    CutEngine e;
+    e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}));
+    std::vector<Vec3> pts;
+    const int n = 72;
+    for (int i = 0; i <= n + extra; ++i) {
+      const double a = 2.0 * M_PI * i / n;
+      pts.emplace_back(5.0 + 2.5 * std::cos(a), 5.1 + 2.5 * std::sin(a), -1.0);
+    }
+    test::polyStroke(e, pts, Vec3(0, 0, -1), 20.0, 1000.0, soundEverySample());
+    ASSERT_EQ(e.objects().size(), 2u) << "the disc stays attached";
+    EXPECT_EQ(e.stats().separations, 1);
+    EXPECT_EQ(e.stats().fillFailures, 0);
+    EXPECT_EQ(e.stats().walkFailures, 0);
+    // The disc: top and bottom pi r^2 each, its wall 2 pi r x 2 (a polygon: a little less).
+    const bool first = e.objects()[0].mesh.area() < e.objects()[1].mesh.area();
+    const auto& disc = e.objects()[first ? 0 : 1].mesh;
+    const auto& kept = e.objects()[first ? 1 : 0].mesh;
+    const double r = 2.5, want = 2.0 * M_PI * r * r + 2.0 * M_PI * r * 2.0;
+    EXPECT_NEAR(disc.area(), want, 0.03 * want);
+    // The slab keeps a hole through it: genus 1 (V - E + F = 0); the disc has none.
+    EXPECT_EQ(test::eulerCharacteristic(kept), 0);
+    EXPECT_EQ(test::eulerCharacteristic(disc), 2);
+  }
+}
+
+}  // namespace
+}  // namespace ld::cutting
+
+namespace ld::cutting {
+namespace {
+
+// A slot from the side that ends in the middle, then a second stroke from the same side
+// that turns and crosses it: the piece between the two cuts comes free where the second
+// meets the first (its walk goes round the slot's wall as round a side of the object).
+TEST(CutterThrough, SecondStrokeCrossingAnEarlierSlotFreesThePieceBetween) {
+  CutEngine e;
+  e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(10, 10, 2), {10, 10, 2}));
+  test::polyStroke(e, {Vec3(-1, 3.3, -1), Vec3(7.3, 3.3, -1)}, Vec3(0, 0, -1), 20.0, 1000.0, soundEverySample());
+  ASSERT_EQ(e.objects().size(), 1u);
+  test::polyStroke(e, {Vec3(-1, 7.3, -1), Vec3(5.3, 7.3, -1), Vec3(5.3, 1.5, -1)}, Vec3(0, 0, -1), 20.0, 1000.0,
+                   soundEverySample());
+  ASSERT_EQ(e.objects().size(), 2u) << "the piece between the cuts stays attached";
+  const bool first = e.objects()[0].mesh.area() < e.objects()[1].mesh.area();
+  const auto& piece = e.objects()[first ? 0 : 1].mesh;
+  // 5.3 x 4 x 2: top and bottom, four sides.
+  const double want = 2 * 5.3 * 4.0 + 2 * (5.3 + 4.0) * 2.0;
+  EXPECT_NEAR(piece.area(), want, 0.02 * want);
+  EXPECT_EQ(test::eulerCharacteristic(piece), 2);
+}
+
+}  // namespace
+}  // namespace ld::cutting
