@@ -738,6 +738,7 @@ struct SymplecticArgs {
   double dt;
   detail::Kernel kernel;
   bool energy;  // the monitor's sums (see symplecticEuler)
+  bool rsqrt;   // detail::Factor::Rsqrt (both threads take the same)
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
@@ -760,6 +761,7 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.rankRest = shared ? nullptr : c.rankRest.data();
   bs.springK = shared ? c.springK : 0.0;
   bs.energy = a.energy;
+  bs.rsqrt = a.rsqrt;
   bs.f4 = a.f4;
   bs.slotVertex = c.slotVertex.data();
   bs.vertexSlot = c.vertexSlot.data();
@@ -807,7 +809,8 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
-  const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel(), energy};
+  const SymplecticArgs args{
+      &w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel(), energy, detail::activeFactor() == detail::Factor::Rsqrt};
   const double added = addedSprings(w, raw(x0), f4);
   const std::size_t ng = c.extraGroup.size();
   SweepSums sums;

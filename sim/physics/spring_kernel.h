@@ -26,6 +26,28 @@ enum class Kernel { Scalar, Avx2, Avx512 };
 // changes nothing) when the path is not supported here.
 bool forceKernel(std::optional<Kernel> k);
 
+// How the vector paths get each spring's 1/l (the scalar path, the portable reference,
+// always takes sqrt and div):
+//  - Rsqrt (default): an estimate of 1/√(l²) refined by Newton steps to about 1 ulp,
+//    no divider (AVX-512: rsqrt14, 14 bits, and 2 steps; AVX2: a bit-trick estimate,
+//    ~5 bits, and 4 steps); the force factor is then k − K·(1/l) (shared K) or
+//    k·(1 − rest·(1/l)) (per spring);
+//  - SqrtDiv: sqrt and div, (k·l − K)/l and k(l − rest)/l, rounded as the scalar path.
+// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there).
+enum class Factor { SqrtDiv, Rsqrt };
+[[nodiscard]] std::string_view factorName(Factor f);
+// The factor the step uses: Rsqrt unless a test or benchmark forced another.
+[[nodiscard]] Factor activeFactor();
+void forceFactor(std::optional<Factor> f);  // nullopt = the default
+// Newton steps path k takes after its estimate (0: the path divides).
+[[nodiscard]] int newtonSteps(Kernel k);
+// For tests: out[i] = 1/√l2[i] as path k's Rsqrt factor computes it, with `steps`
+// Newton steps (0 … 6; newtonSteps(k) is the step's); the scalar path divides. Call
+// with denormals flushed, as the step runs. Valid for l² in [2^-1021, DBL_MAX]
+// (below, 0.5·l² is flushed); l² = 0 gives a non-finite or huge value (the step
+// masks it).
+void invSqrt(Kernel k, const double* l2, double* out, std::size_t n, int steps);
+
 // Springs [0, m) of one chunk (vertex indices of both ends, rest, k). Each spring's
 // force g = k(l − rest)/l · (x_j − x_i) is added to f4[4·i] (unless addLower is off)
 // and subtracted from f4[4·j] when j < writeLimit, in spring order. The force buffer
@@ -92,6 +114,7 @@ struct BlockStep {
   std::size_t g0 = 0, g1 = 0;           // groups to step
   double dt = 0, damp = 1, homeK = 0;
   double springK = 0;  // K of the shared-K layout (rankRest null)
+  bool rsqrt = false;  // Factor::Rsqrt (vector paths; the scalar path divides)
   // The monitor's sums: off, only Σ|v1|² and the home sum are taken (enough to see a
   // non-finite step); pe, kv2, ke1, work and maxComp2 stay 0 and `stiffness` is not
   // read (a step without the monitor needs none of them).
