@@ -809,8 +809,9 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
+  const detail::Kernel kern = detail::activeKernel();
   const SymplecticArgs args{
-      &w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel(), energy, detail::activeFactor() == detail::Factor::Rsqrt};
+      &w, &c, x0, v0, x1, v1, f4, dt, kern, energy, detail::activeFactor(kern) == detail::Factor::Rsqrt};
   const double added = addedSprings(w, raw(x0), f4);
   const std::size_t ng = c.extraGroup.size();
   SweepSums sums;

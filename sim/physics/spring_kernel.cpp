@@ -823,9 +823,10 @@ bool forceKernel(std::optional<Kernel> k) {
 
 std::string_view factorName(Factor f) { return f == Factor::Rsqrt ? "rsqrt" : "sqrt-div"; }
 
-Factor activeFactor() {
+Factor activeFactor(Kernel k) {
   const int f = gForcedFactor.load(std::memory_order_relaxed);
-  return f >= 0 ? static_cast<Factor>(f) : Factor::Rsqrt;
+  if (f >= 0) return static_cast<Factor>(f);
+  return k == Kernel::Avx512 ? Factor::Rsqrt : Factor::SqrtDiv;
 }
 
 void forceFactor(std::optional<Factor> f) {

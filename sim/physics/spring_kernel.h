@@ -28,17 +28,20 @@ bool forceKernel(std::optional<Kernel> k);
 
 // How the vector paths get each spring's 1/l (the scalar path, the portable reference,
 // always takes sqrt and div):
-//  - Rsqrt (default): an estimate of 1/√(l²) refined by Newton steps to about 1 ulp,
-//    no divider (AVX-512: rsqrt14, 14 bits, and 2 steps; AVX2: a bit-trick estimate,
-//    ~5 bits, and 4 steps); the force factor is then k − K·(1/l) (shared K) or
-//    k·(1 − rest·(1/l)) (per spring);
+//  - Rsqrt: an estimate of 1/√(l²) refined by Newton steps to within 1 ulp, no divider
+//    (AVX-512: rsqrt14, 14 bits, and 2 steps; AVX2: a bit-trick estimate, ~5 bits, and
+//    4 steps); the force factor is then k − K·(1/l) (shared K) or k·(1 − rest·(1/l))
+//    (per spring);
 //  - SqrtDiv: sqrt and div, (k·l − K)/l and k(l − rest)/l, rounded as the scalar path.
-// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there).
+// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there). Default,
+// by measurement on an Intel Xeon (2.6 GHz, one divider for sqrt and div, ~28 cycles
+// a rank of 8): Rsqrt on AVX-512 (the step 25–35 % faster), SqrtDiv on AVX2 (Rsqrt
+// with 4 steps measured 13–22 % slower there).
 enum class Factor { SqrtDiv, Rsqrt };
 [[nodiscard]] std::string_view factorName(Factor f);
-// The factor the step uses: Rsqrt unless a test or benchmark forced another.
-[[nodiscard]] Factor activeFactor();
-void forceFactor(std::optional<Factor> f);  // nullopt = the default
+// The factor path k uses: its default unless a test or benchmark forced one.
+[[nodiscard]] Factor activeFactor(Kernel k);
+void forceFactor(std::optional<Factor> f);  // nullopt = each path's default
 // Newton steps path k takes after its estimate (0: the path divides).
 [[nodiscard]] int newtonSteps(Kernel k);
 // For tests: out[i] = 1/√l2[i] as path k's Rsqrt factor computes it, with `steps`

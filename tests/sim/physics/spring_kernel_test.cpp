@@ -99,6 +99,18 @@ TEST(SpringKernel, ScalarAlwaysThereAndForcingWorks) {
     EXPECT_EQ(detail::activeKernel(), Kernel::Scalar);
   }
   EXPECT_EQ(detail::activeKernel(), automatic);
+  // The force factor: each path's default (measured), or the one forced.
+  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::Rsqrt);
+  EXPECT_EQ(detail::activeFactor(Kernel::Avx2), detail::Factor::SqrtDiv);
+  {
+    ForcedFactor f(detail::Factor::SqrtDiv);
+    EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::SqrtDiv);
+  }
+  {
+    ForcedFactor f(detail::Factor::Rsqrt);
+    EXPECT_EQ(detail::activeFactor(Kernel::Avx2), detail::Factor::Rsqrt);
+  }
+  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::Rsqrt);
   for (Kernel k : {Kernel::Avx2, Kernel::Avx512})
     if (!detail::kernelSupported(k)) {
       EXPECT_FALSE(detail::forceKernel(k)) << detail::kernelName(k);
