@@ -34,12 +34,14 @@ bool forceKernel(std::optional<Kernel> k);
 //    4 steps); the force factor is then k − K·(1/l) (shared K) or k·(1 − rest·(1/l))
 //    (per spring);
 //  - SqrtDiv: sqrt and div, (k·l − K)/l and k(l − rest)/l, rounded as the scalar path.
-// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there). Default,
-// by measurement on an Intel Xeon (2.6 GHz, one divider for sqrt and div, ~28 cycles
-// a rank of 8): Rsqrt on AVX-512 (the step 25–35 % faster), SqrtDiv on AVX2 (Rsqrt
-// with 4 steps measured 13–22 % slower there).
+// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there). Default
+// (defaultFactor), by measurement: Rsqrt on AVX-512 on Intel CPUs (on an Intel Xeon at
+// 2.6 GHz, whose one divider takes ~28 cycles for a rank's sqrt and div, the step is
+// 25–35 % faster), SqrtDiv elsewhere: on AVX2 (Rsqrt with 4 steps measured 10–20 %
+// slower on that Xeon) and on AMD CPUs (sqrt and div measured faster on a Zen 5).
 enum class Factor { SqrtDiv, Rsqrt };
 [[nodiscard]] std::string_view factorName(Factor f);
+[[nodiscard]] Factor defaultFactor(Kernel k);
 // The factor path k uses: its default unless a test or benchmark forced one.
 [[nodiscard]] Factor activeFactor(Kernel k);
 void forceFactor(std::optional<Factor> f);  // nullopt = each path's default

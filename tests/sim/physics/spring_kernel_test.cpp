@@ -102,9 +102,12 @@ TEST(SpringKernel, ScalarAlwaysThereAndForcingWorks) {
     EXPECT_EQ(detail::activeKernel(), Kernel::Scalar);
   }
   EXPECT_EQ(detail::activeKernel(), automatic);
-  // The force factor: each path's default (measured), or the one forced.
-  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::Rsqrt);
-  EXPECT_EQ(detail::activeFactor(Kernel::Avx2), detail::Factor::SqrtDiv);
+  // The force factor: each path's default (measured: rsqrt on AVX-512 on Intel CPUs,
+  // sqrt and div elsewhere), or the one forced.
+  for (Kernel k : {Kernel::Scalar, Kernel::Avx2, Kernel::Avx512})
+    EXPECT_EQ(detail::activeFactor(k), detail::defaultFactor(k));
+  EXPECT_EQ(detail::defaultFactor(Kernel::Avx2), detail::Factor::SqrtDiv);
+  EXPECT_EQ(detail::defaultFactor(Kernel::Scalar), detail::Factor::SqrtDiv);
   {
     ForcedFactor f(detail::Factor::SqrtDiv);
     EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::SqrtDiv);
@@ -113,7 +116,7 @@ TEST(SpringKernel, ScalarAlwaysThereAndForcingWorks) {
     ForcedFactor f(detail::Factor::Rsqrt);
     EXPECT_EQ(detail::activeFactor(Kernel::Avx2), detail::Factor::Rsqrt);
   }
-  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::Rsqrt);
+  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::defaultFactor(Kernel::Avx512));
   for (Kernel k : {Kernel::Avx2, Kernel::Avx512})
     if (!detail::kernelSupported(k)) {
       EXPECT_FALSE(detail::forceKernel(k)) << detail::kernelName(k);
