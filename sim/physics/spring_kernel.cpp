@@ -469,11 +469,11 @@ LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d 
   const __mmask8 pos = _mm512_cmp_pd_mask(l2, _mm512_setzero_pd(), _CMP_GT_OQ);
   if constexpr (Rsqrt) {
     const __m512d y = invSqrt8<kNewtonAvx512>(l2);
-    if constexpr (Energy) {
-      const __m512d st = _mm512_sub_pd(_mm512_maskz_mul_pd(pos, l2, y), rest);
-      pe = _mm512_fmadd_pd(_mm512_mul_pd(k, st), st, pe);
-    }
-    return _mm512_maskz_mul_pd(pos, k, _mm512_fnmadd_pd(rest, y, _mm512_set1_pd(1.0)));
+    const __m512d g = _mm512_fnmadd_pd(rest, y, _mm512_set1_pd(1.0));  // 1 − rest/l
+    const __m512d w = _mm512_maskz_mul_pd(pos, k, g);
+    // k(l − rest)² = l²·(1 − rest/l)·w (0 where l = 0: g is not finite there).
+    if constexpr (Energy) pe = _mm512_fmadd_pd(_mm512_maskz_mul_pd(pos, l2, g), w, pe);
+    return w;
   }
   const __m512d l = _mm512_sqrt_pd(l2);
   const __m512d st = _mm512_sub_pd(l, rest);
@@ -492,7 +492,8 @@ LD_AVX512 inline __m512d sharedWeights8(const __m512d* d, __m512d k, __m512d sha
   const __mmask8 on = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ), l2, zero, _CMP_GT_OQ);
   if constexpr (Rsqrt) {
     const __m512d y = invSqrt8<kNewtonAvx512>(l2);
-    if constexpr (Energy) pe = _mm512_mask3_fnmadd_pd(twoK, _mm512_mul_pd(l2, y), _mm512_fmadd_pd(k, l2, pe), on);
+    // k·l² − 2K·l = l²·(k − 2K/l): two operations (0 where k = 0 or l = 0).
+    if constexpr (Energy) pe = _mm512_fmadd_pd(l2, _mm512_maskz_fnmadd_pd(on, twoK, y, k), pe);
     return _mm512_maskz_fnmadd_pd(on, sharedK, y, k);
   }
   const __m512d l = _mm512_sqrt_pd(l2);
