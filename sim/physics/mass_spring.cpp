@@ -769,6 +769,7 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.n = w.n;
   bs.g0 = g0;
   bs.g1 = g1;
+  bs.groups = c.extraGroup.size();
   bs.dt = a.dt;
   bs.damp = 1.0 - a.dt * w.c;
   bs.homeK = w.homeK;
@@ -788,19 +789,29 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   return s;
 }
 
+// Two threads: the groups come in kChunks chunks that both threads take in turn from
+// a shared counter, so a helper thread that gets its core late (a loaded machine)
+// leaves more chunks to the stepping thread instead of making it wait for a fixed half.
+// Each chunk's sums are kept apart and added in chunk order afterwards: the sums do not
+// depend on which thread took which chunk (and no vertex's result does).
+constexpr std::size_t kChunks = 32;
 struct SymplecticJob {
   const SymplecticArgs* args;
-  SweepSums sums;
-  static void run(void* p) {
-    auto* j = static_cast<SymplecticJob*>(p);
-    const Cache& c = *j->args->c;
-    j->sums = symplecticGroups(*j->args, c.splitGroup, c.extraGroup.size());
+  std::size_t groups = 0, chunks = 0;
+  std::atomic<std::size_t> next{0};
+  std::array<SweepSums, kChunks> sums{};
+  std::size_t bound(std::size_t k) const { return k * groups / chunks; }
+  void work() {
+    for (std::size_t k; (k = next.fetch_add(1, std::memory_order_relaxed)) < chunks;)
+      sums[k] = symplecticGroups(*args, bound(k), bound(k + 1));
   }
+  static void run(void* p) { static_cast<SymplecticJob*>(p)->work(); }
 };
 
 // v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one pass over the vertex blocks
-// (two threads: each takes its blocks; a vertex's result does not depend on which
-// thread does it, so the result is bit-identical to one thread).
+// (two threads: chunks of blocks taken in turn, see SymplecticJob; a vertex's result
+// does not depend on which thread does it, so the result is bit-identical to one
+// thread).
 // energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|², kinetic
 // energy, work, largest component) are not taken (spring0 then holds the added
 // springs' energy only); v2 and home1 still show a non-finite step.
@@ -819,11 +830,14 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     sums = symplecticGroups(args, 0, ng);
   } else {
     detail::Worker& worker = c.worker.get();
-    SymplecticJob job{&args, {}};
+    SymplecticJob job;
+    job.args = &args;
+    job.groups = ng;
+    job.chunks = std::min(kChunks, ng);
     worker.start(&SymplecticJob::run, &job);
-    sums = symplecticGroups(args, 0, c.splitGroup);
+    job.work();
     worker.wait();
-    sums.add(job.sums);
+    for (std::size_t k = 0; k < job.chunks; ++k) sums.add(job.sums[k]);
   }
   if (energy && c.laneLayout == detail::LaneLayout::SharedK) {
     // The lanes summed k·l² − 2K·l; the constant part K·rest of each lane, here. The

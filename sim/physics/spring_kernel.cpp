@@ -32,7 +32,7 @@ namespace {
 constexpr std::size_t kAhead = 4;
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
-  if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
+  if (c.n < kPrefetchFrom || grp + kAhead >= (c.groups ? c.groups : c.g1)) return;
   const std::size_t t = kGroup * (grp + kAhead);
   for (const double* a : {c.x0, c.v0, c.home, c.ext})
     for (std::size_t o = 0; o < 3 * kGroup; o += 8) __builtin_prefetch(a + 3 * t + o);

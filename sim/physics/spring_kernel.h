@@ -118,6 +118,7 @@ struct BlockStep {
   const std::uint8_t* extra = nullptr;  // per group: f4 holds forces for it
   std::size_t n = 0;                    // vertices
   std::size_t g0 = 0, g1 = 0;           // groups to step
+  std::size_t groups = 0;               // groups in the mesh (the prefetch's bound; 0: g1)
   double dt = 0, damp = 1, homeK = 0;
   double springK = 0;  // K of the shared-K layout (rankRest null)
   bool rsqrt = false;  // Factor::Rsqrt (vector paths; the scalar path divides)
