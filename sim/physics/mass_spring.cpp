@@ -316,10 +316,6 @@ void buildBlocks(Cache& c, std::size_t n) {
     }
   }
   c.extraGroup.assign(ng, 0);
-  // Two threads: about half of the work (lanes + vertices) on each side.
-  c.splitGroup = 0;
-  while (c.splitGroup < ng && 2 * (L * c.rankStart[2 * c.splitGroup] + G * c.splitGroup) < lanes + G * ng)
-    ++c.splitGroup;
 }
 
 // One O(V + E) pass over the mesh's arrays.
