@@ -114,8 +114,18 @@ class Worker {
   void start(void (*fn)(void*), void* ctx) {
     fn_ = fn;
     ctx_ = ctx;
+    const std::uint32_t e = go_.load(std::memory_order_relaxed) + 1;
+    gate_.store(gate(e, kOpen), std::memory_order_release);
     go_.fetch_add(1, std::memory_order_release);
     go_.notify_one();
+  }
+  // For a job the caller can finish alone (the two-thread step's chunks): true when
+  // the worker had not taken the job yet; it will not now, so there is nothing to wait
+  // for (a worker that gets its core late no longer holds the caller up). Otherwise
+  // wait() as usual.
+  bool takeBack() {
+    std::uint64_t open = gate(go_.load(std::memory_order_relaxed), kOpen);
+    return gate_.compare_exchange_strong(open, open - kOpen + kClosed, std::memory_order_acq_rel);
   }
   void wait() {
     const std::uint32_t target = go_.load(std::memory_order_relaxed);
@@ -138,6 +148,8 @@ class Worker {
       }
       seen = g;
       if (quit_.load()) return;
+      std::uint64_t open = gate(seen, kOpen);  // the job, unless the caller took it back
+      if (!gate_.compare_exchange_strong(open, open - kOpen + kTaken, std::memory_order_acq_rel)) continue;
       {
         FlushDenormals ftz;
         fn_(ctx_);
@@ -146,8 +158,14 @@ class Worker {
       done_.notify_one();
     }
   }
+  // gate_: the job of start number e is open, taken by the worker, or taken back by
+  // the caller (whoever changes it first from open). fn_ and ctx_ are read only by a
+  // worker that took the job.
+  static constexpr std::uint64_t kOpen = 1, kTaken = 2, kClosed = 3;
+  static std::uint64_t gate(std::uint32_t e, std::uint64_t state) { return (std::uint64_t{e} << 2) | state; }
   void (*fn_)(void*) = nullptr;
   void* ctx_ = nullptr;
+  std::atomic<std::uint64_t> gate_{0};
   std::atomic<std::uint32_t> go_{0}, done_{0};
   std::atomic<bool> quit_{false};
   std::thread thread_;
@@ -832,7 +850,7 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     job.chunks = std::min(kChunks, ng);
     worker.start(&SymplecticJob::run, &job);
     job.work();
-    worker.wait();
+    if (!worker.takeBack()) worker.wait();
     for (std::size_t k = 0; k < job.chunks; ++k) sums.add(job.sums[k]);
   }
   if (energy && c.laneLayout == detail::LaneLayout::SharedK) {
