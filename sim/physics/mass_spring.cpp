@@ -114,8 +114,18 @@ class Worker {
   void start(void (*fn)(void*), void* ctx) {
     fn_ = fn;
     ctx_ = ctx;
+    const std::uint32_t e = go_.load(std::memory_order_relaxed) + 1;
+    gate_.store(gate(e, kOpen), std::memory_order_release);
     go_.fetch_add(1, std::memory_order_release);
     go_.notify_one();
+  }
+  // For a job the caller can finish alone (the two-thread step's chunks): true when
+  // the worker had not taken the job yet; it will not now, so there is nothing to wait
+  // for (a worker that gets its core late no longer holds the caller up). Otherwise
+  // wait() as usual.
+  bool takeBack() {
+    std::uint64_t open = gate(go_.load(std::memory_order_relaxed), kOpen);
+    return gate_.compare_exchange_strong(open, open - kOpen + kClosed, std::memory_order_acq_rel);
   }
   void wait() {
     const std::uint32_t target = go_.load(std::memory_order_relaxed);
@@ -138,6 +148,8 @@ class Worker {
       }
       seen = g;
       if (quit_.load()) return;
+      std::uint64_t open = gate(seen, kOpen);  // the job, unless the caller took it back
+      if (!gate_.compare_exchange_strong(open, open - kOpen + kTaken, std::memory_order_acq_rel)) continue;
       {
         FlushDenormals ftz;
         fn_(ctx_);
@@ -146,8 +158,14 @@ class Worker {
       done_.notify_one();
     }
   }
+  // gate_: the job of start number e is open, taken by the worker, or taken back by
+  // the caller (whoever changes it first from open). fn_ and ctx_ are read only by a
+  // worker that took the job.
+  static constexpr std::uint64_t kOpen = 1, kTaken = 2, kClosed = 3;
+  static std::uint64_t gate(std::uint32_t e, std::uint64_t state) { return (std::uint64_t{e} << 2) | state; }
   void (*fn_)(void*) = nullptr;
   void* ctx_ = nullptr;
+  std::atomic<std::uint64_t> gate_{0};
   std::atomic<std::uint32_t> go_{0}, done_{0};
   std::atomic<bool> quit_{false};
   std::thread thread_;
@@ -316,10 +334,6 @@ void buildBlocks(Cache& c, std::size_t n) {
     }
   }
   c.extraGroup.assign(ng, 0);
-  // Two threads: about half of the work (lanes + vertices) on each side.
-  c.splitGroup = 0;
-  while (c.splitGroup < ng && 2 * (L * c.rankStart[2 * c.splitGroup] + G * c.splitGroup) < lanes + G * ng)
-    ++c.splitGroup;
 }
 
 // One O(V + E) pass over the mesh's arrays.
@@ -738,6 +752,7 @@ struct SymplecticArgs {
   double dt;
   detail::Kernel kernel;
   bool energy;  // the monitor's sums (see symplecticEuler)
+  bool rsqrt;   // detail::Factor::Rsqrt (both threads take the same)
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
@@ -760,6 +775,7 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.rankRest = shared ? nullptr : c.rankRest.data();
   bs.springK = shared ? c.springK : 0.0;
   bs.energy = a.energy;
+  bs.rsqrt = a.rsqrt;
   bs.f4 = a.f4;
   bs.slotVertex = c.slotVertex.data();
   bs.vertexSlot = c.vertexSlot.data();
@@ -767,6 +783,7 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.n = w.n;
   bs.g0 = g0;
   bs.g1 = g1;
+  bs.groups = c.extraGroup.size();
   bs.dt = a.dt;
   bs.damp = 1.0 - a.dt * w.c;
   bs.homeK = w.homeK;
@@ -786,19 +803,29 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   return s;
 }
 
+// Two threads: the groups come in kChunks chunks that both threads take in turn from
+// a shared counter, so a helper thread that gets its core late (a loaded machine)
+// leaves more chunks to the stepping thread instead of making it wait for a fixed half.
+// Each chunk's sums are kept apart and added in chunk order afterwards: the sums do not
+// depend on which thread took which chunk (and no vertex's result does).
+constexpr std::size_t kChunks = 32;
 struct SymplecticJob {
   const SymplecticArgs* args;
-  SweepSums sums;
-  static void run(void* p) {
-    auto* j = static_cast<SymplecticJob*>(p);
-    const Cache& c = *j->args->c;
-    j->sums = symplecticGroups(*j->args, c.splitGroup, c.extraGroup.size());
+  std::size_t groups = 0, chunks = 0;
+  std::atomic<std::size_t> next{0};
+  std::array<SweepSums, kChunks> sums{};
+  std::size_t bound(std::size_t k) const { return k * groups / chunks; }
+  void work() {
+    for (std::size_t k; (k = next.fetch_add(1, std::memory_order_relaxed)) < chunks;)
+      sums[k] = symplecticGroups(*args, bound(k), bound(k + 1));
   }
+  static void run(void* p) { static_cast<SymplecticJob*>(p)->work(); }
 };
 
 // v1 = (1 − dt·c)·v0 + dt·a(x0), x1 = x0 + dt·v1, in one pass over the vertex blocks
-// (two threads: each takes its blocks; a vertex's result does not depend on which
-// thread does it, so the result is bit-identical to one thread).
+// (two threads: chunks of blocks taken in turn, see SymplecticJob; a vertex's result
+// does not depend on which thread does it, so the result is bit-identical to one
+// thread).
 // energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|², kinetic
 // energy, work, largest component) are not taken (spring0 then holds the added
 // springs' energy only); v2 and home1 still show a non-finite step.
@@ -807,7 +834,9 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
-  const SymplecticArgs args{&w, &c, x0, v0, x1, v1, f4, dt, detail::activeKernel(), energy};
+  const detail::Kernel kern = detail::activeKernel();
+  const SymplecticArgs args{
+      &w, &c, x0, v0, x1, v1, f4, dt, kern, energy, detail::activeFactor(kern) == detail::Factor::Rsqrt};
   const double added = addedSprings(w, raw(x0), f4);
   const std::size_t ng = c.extraGroup.size();
   SweepSums sums;
@@ -815,11 +844,14 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     sums = symplecticGroups(args, 0, ng);
   } else {
     detail::Worker& worker = c.worker.get();
-    SymplecticJob job{&args, {}};
+    SymplecticJob job;
+    job.args = &args;
+    job.groups = ng;
+    job.chunks = std::min(kChunks, ng);
     worker.start(&SymplecticJob::run, &job);
-    sums = symplecticGroups(args, 0, c.splitGroup);
-    worker.wait();
-    sums.add(job.sums);
+    job.work();
+    if (!worker.takeBack()) worker.wait();
+    for (std::size_t k = 0; k < job.chunks; ++k) sums.add(job.sums[k]);
   }
   if (energy && c.laneLayout == detail::LaneLayout::SharedK) {
     // The lanes summed k·l² − 2K·l; the constant part K·rest of each lane, here. The

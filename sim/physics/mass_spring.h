@@ -185,7 +185,7 @@ struct Cache {
   // of every incident spring: each spring appears at both ends). halfSlot[2q],
   // halfSlot[2q + 1]: where CSR slot q sits (8·rank + lane) at its lower and its upper
   // end, so an edit can zero both. extraGroup: groups touched by added springs (their
-  // forces go through f4). Two threads: groups [0, splitGroup) and the rest.
+  // forces go through f4).
   // Lane layout (spring_kernel.h): when every spring with k ≠ 0 has k·rest = one K to
   // rounding (4 ulp; tissue_properties gives every edge k = K / rest, at load and after
   // cuts), the lanes carry the far end and k only (12 bytes; rankRest empty, springK =
@@ -196,7 +196,6 @@ struct Cache {
   std::vector<std::uint32_t> rankStart, rankX, halfSlot;
   std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
   std::vector<std::uint8_t> slotVertex, vertexSlot, extraGroup;
-  std::size_t splitGroup = 0;
   std::size_t maxOut = 0;  // most springs at one vertex
   bool forceZero = false;  // f is all zero (the symplectic step leaves it so)
   WorkerSlot worker;

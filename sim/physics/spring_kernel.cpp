@@ -32,7 +32,7 @@ namespace {
 constexpr std::size_t kAhead = 4;
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) inline void prefetchGroup(const BlockStep& c, std::size_t grp) {
-  if (c.n < kPrefetchFrom || grp + kAhead >= c.g1) return;
+  if (c.n < kPrefetchFrom || grp + kAhead >= (c.groups ? c.groups : c.g1)) return;
   const std::size_t t = kGroup * (grp + kAhead);
   for (const double* a : {c.x0, c.v0, c.home, c.ext})
     for (std::size_t o = 0; o < 3 * kGroup; o += 8) __builtin_prefetch(a + 3 * t + o);
@@ -193,11 +193,35 @@ LD_AVX2 inline void transpose4(const __m256d* d, __m256d* xyz) {
   xyz[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
 }
 
+// 1/√l2 without the divider: a bit-trick estimate (the exponent halved and negated by
+// an integer subtraction from a magic constant, ~3.4 % off, AVX2 has no rsqrt for
+// doubles) and Steps Newton steps y ← y + y·(1/2 − (l²/2)·y·y) (the error e becomes
+// 1.5e²: 4 steps from ~5 bits to about 1 ulp). Finite for l² = 0 (masked by the callers).
+template <int Steps>
+LD_AVX2 inline __m256d invSqrt4(__m256d l2) {
+  const __m256i magic = _mm256_set1_epi64x(0x5FE6EB50C7B537A9LL);
+  __m256d y = _mm256_castsi256_pd(_mm256_sub_epi64(magic, _mm256_srli_epi64(_mm256_castpd_si256(l2), 1)));
+  const __m256d h = _mm256_mul_pd(l2, _mm256_set1_pd(0.5)), half = _mm256_set1_pd(0.5);
+  for (int s = 0; s < Steps; ++s) y = _mm256_fmadd_pd(y, _mm256_fnmadd_pd(_mm256_mul_pd(h, y), y, half), y);
+  return y;
+}
+constexpr int kNewtonAvx2 = 4;
+
 // k(l − rest)/l of four springs with difference vectors d (x, y, z registers), 0 where
-// l = 0; adds k(l − rest)² to pe.
-template <bool Energy = true>
+// l = 0; adds k(l − rest)² to pe. Rsqrt: k·(1 − rest·(1/l)) with 1/l from invSqrt4
+// (the same factor with and without the energy: it does not use l).
+template <bool Energy = true, bool Rsqrt = false>
 LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k, __m256d& pe) {
   const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
+  if constexpr (Rsqrt) {
+    const __m256d y = invSqrt4<kNewtonAvx2>(l2);
+    const __m256d pos = _mm256_cmp_pd(l2, _mm256_setzero_pd(), _CMP_GT_OQ);
+    if constexpr (Energy) {
+      const __m256d st = _mm256_sub_pd(_mm256_mul_pd(l2, y), rest);  // y is finite at l² = 0
+      pe = _mm256_fmadd_pd(_mm256_mul_pd(k, st), st, pe);
+    }
+    return _mm256_and_pd(_mm256_mul_pd(k, _mm256_fnmadd_pd(rest, y, _mm256_set1_pd(1.0))), pos);
+  }
   const __m256d l = _mm256_sqrt_pd(l2);
   const __m256d st = _mm256_sub_pd(l, rest);
   const __m256d kst = _mm256_mul_pd(k, st);
@@ -206,12 +230,20 @@ LD_AVX2 inline __m256d springWeights4(const __m256d* d, __m256d rest, __m256d k,
 }
 
 // The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
-// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
-template <bool Energy>
+// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane. Rsqrt:
+// k − K·(1/l), l = l²·(1/l) for the energy.
+template <bool Energy, bool Rsqrt = false>
 LD_AVX2 inline __m256d sharedWeights4(const __m256d* d, __m256d k, __m256d sharedK, __m256d twoK, __m256d& pe) {
   const __m256d l2 = _mm256_fmadd_pd(d[2], d[2], _mm256_fmadd_pd(d[1], d[1], _mm256_mul_pd(d[0], d[0])));
-  const __m256d l = _mm256_sqrt_pd(l2);
   const __m256d zero = _mm256_setzero_pd();
+  if constexpr (Rsqrt) {
+    const __m256d y = invSqrt4<kNewtonAvx2>(l2);
+    const __m256d on = _mm256_and_pd(_mm256_cmp_pd(l2, zero, _CMP_GT_OQ), _mm256_cmp_pd(k, zero, _CMP_NEQ_UQ));
+    if constexpr (Energy)
+      pe = _mm256_fnmadd_pd(_mm256_and_pd(on, twoK), _mm256_mul_pd(l2, y), _mm256_fmadd_pd(k, l2, pe));
+    return _mm256_and_pd(_mm256_fnmadd_pd(sharedK, y, k), on);
+  }
+  const __m256d l = _mm256_sqrt_pd(l2);
   const __m256d on = _mm256_and_pd(_mm256_cmp_pd(l, zero, _CMP_GT_OQ), _mm256_cmp_pd(k, zero, _CMP_NEQ_UQ));
   if constexpr (Energy) pe = _mm256_fnmadd_pd(_mm256_and_pd(on, twoK), l, _mm256_fmadd_pd(k, l2, pe));
   return _mm256_and_pd(_mm256_div_pd(_mm256_fmsub_pd(k, l, sharedK), l), on);
@@ -308,7 +340,7 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
 
 // Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
 // springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
                              __m256d& pe) {
   const __m256d zero = _mm256_setzero_pd();
@@ -325,9 +357,9 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
     transpose4(d, dxyz);
     __m256d w;
     if constexpr (Shared)
-      w = sharedWeights4<Energy>(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
+      w = sharedWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
     else
-      w = springWeights4<Energy>(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+      w = springWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
     fx = _mm256_fmadd_pd(w, dxyz[0], fx);
     fy = _mm256_fmadd_pd(w, dxyz[1], fy);
     fz = _mm256_fmadd_pd(w, dxyz[2], fz);
@@ -340,7 +372,7 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
   fa[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
 
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
   const __m256d zero = _mm256_setzero_pd();
   Acc2 acc{zero, zero, zero, zero, zero, zero};
@@ -361,7 +393,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
         xiAt[u] = c.x0 + 3 * (v[u] < rem ? t + v[u] : t);  // lanes past n: the group's first vertex
       }
       __m256d fa[4];
-      springs4<Shared, Energy>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
+      springs4<Shared, Energy, Rsqrt>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
       for (std::size_t u = 0; u < 4; ++u) fv[v[u]] = fa[u];
     }
     if (c.extra[grp])
@@ -413,13 +445,36 @@ LD_AVX512 inline void transpose8(const __m256d* d, __m512d* xyz) {
   xyz[2] = _mm512_shuffle_f64x2(zLo, zHi, 0x44);
 }
 
+// 1/√l2 without the divider: rsqrt14 (relative error < 2^-14) and Steps Newton steps
+// y ← y + y·(1/2 − (l²/2)·y·y) (the error e becomes 1.5e²: 2 steps give about 1 ulp;
+// written as a correction to y, the last rounding is y's own). rsqrt14(0) = ∞: the
+// callers mask l² = 0.
+template <int Steps>
+LD_AVX512 inline __m512d invSqrt8(__m512d l2) {
+  const __m512d h = _mm512_mul_pd(l2, _mm512_set1_pd(0.5)), half = _mm512_set1_pd(0.5);
+  __m512d y = _mm512_rsqrt14_pd(l2);
+  for (int s = 0; s < Steps; ++s) y = _mm512_fmadd_pd(y, _mm512_fnmadd_pd(_mm512_mul_pd(h, y), y, half), y);
+  return y;
+}
+constexpr int kNewtonAvx512 = 2;
+
 // k(l − rest)/l of eight springs with difference vectors d (x, y, z registers), 0
-// where l = 0; adds k(l − rest)² to pe. sqrt and div: fast on this CPU's 512-bit units
-// (rsqrt14 and two Newton steps measured slower) and rounded as the scalar path is.
-template <bool Energy = true>
+// where l = 0; adds k(l − rest)² to pe. Rsqrt: k·(1 − rest·(1/l)), 1/l from invSqrt8
+// (on this Intel core sqrt and div share one divider, ~28 cycles a rank; on a Zen 5
+// they measured faster than rsqrt14 and Newton). Otherwise sqrt and div, rounded as
+// the scalar path is.
+template <bool Energy = true, bool Rsqrt = false>
 LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d k, __m512d& pe) {
   const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
   const __mmask8 pos = _mm512_cmp_pd_mask(l2, _mm512_setzero_pd(), _CMP_GT_OQ);
+  if constexpr (Rsqrt) {
+    const __m512d y = invSqrt8<kNewtonAvx512>(l2);
+    const __m512d g = _mm512_fnmadd_pd(rest, y, _mm512_set1_pd(1.0));  // 1 − rest/l
+    const __m512d w = _mm512_maskz_mul_pd(pos, k, g);
+    // k(l − rest)² = l²·(1 − rest/l)·w (0 where l = 0: g is not finite there).
+    if constexpr (Energy) pe = _mm512_fmadd_pd(_mm512_maskz_mul_pd(pos, l2, g), w, pe);
+    return w;
+  }
   const __m512d l = _mm512_sqrt_pd(l2);
   const __m512d st = _mm512_sub_pd(l, rest);
   const __m512d kst = _mm512_mul_pd(k, st);
@@ -428,12 +483,19 @@ LD_AVX512 inline __m512d springWeights8(const __m512d* d, __m512d rest, __m512d 
 }
 
 // The same in the shared-K layout: (k·l − K)/l, 0 where k = 0 or l = 0; adds
-// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane.
-template <bool Energy>
+// k·l² − 2K·l (where k ≠ 0) to pe. sharedK = K, twoK = 2K in every lane. Rsqrt:
+// k − K·(1/l), l = l²·(1/l) for the energy.
+template <bool Energy, bool Rsqrt = false>
 LD_AVX512 inline __m512d sharedWeights8(const __m512d* d, __m512d k, __m512d sharedK, __m512d twoK, __m512d& pe) {
   const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
   const __m512d zero = _mm512_setzero_pd();
   const __mmask8 on = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ), l2, zero, _CMP_GT_OQ);
+  if constexpr (Rsqrt) {
+    const __m512d y = invSqrt8<kNewtonAvx512>(l2);
+    // k·l² − 2K·l = l²·(k − 2K/l): two operations (0 where k = 0 or l = 0).
+    if constexpr (Energy) pe = _mm512_fmadd_pd(l2, _mm512_maskz_fnmadd_pd(on, twoK, y, k), pe);
+    return _mm512_maskz_fnmadd_pd(on, sharedK, y, k);
+  }
   const __m512d l = _mm512_sqrt_pd(l2);
   if constexpr (Energy) pe = _mm512_mask3_fnmadd_pd(twoK, l, _mm512_fmadd_pd(k, l2, pe), on);
   return _mm512_maskz_div_pd(on, _mm512_fmsub_pd(k, l, sharedK), l);
@@ -507,7 +569,7 @@ struct Consts512 {
 // shuffles beat gathers here), summed per lane in registers.
 // One rank of 8 lanes (lane q of the ranks: far-end offsets, k and, per-spring
 // layout, rest) into the lanes' sums.
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* f,
                             __m512d& pe) {
   const std::uint32_t* J = c.rankX + q;
@@ -518,16 +580,16 @@ LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t 
   for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
   __m512d w;
   if constexpr (Shared)
-    w = sharedWeights8<Energy>(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
+    w = sharedWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
   else
-    w = springWeights8<Energy>(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
+    w = springWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
   for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
 }
 
 // The group's two blocks (lanes at positions xi[h], one register an axis), rank by
 // rank, both blocks in one loop while both have ranks (two independent chains of
 // sqrt and div in flight), then the rest of the longer one; sums in registers.
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
                                  __m512d (*f)[3], __m512d& pe) {
   __m512d a[3] = {k.zero, k.zero, k.zero}, b[3] = {k.zero, k.zero, k.zero};
@@ -536,11 +598,11 @@ LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::si
   const std::size_t both = std::min(r1 - r0, r2 - r1);
   std::size_t qa = kLanes * r0, qb = kLanes * r1;
   for (std::size_t r = 0; r < both; ++r, qa += kLanes, qb += kLanes) {
-    rank8<Shared, Energy>(c, k, qa, xi[0], a, ea);
-    rank8<Shared, Energy>(c, k, qb, xi[1], b, eb);
+    rank8<Shared, Energy, Rsqrt>(c, k, qa, xi[0], a, ea);
+    rank8<Shared, Energy, Rsqrt>(c, k, qb, xi[1], b, eb);
   }
-  for (; qa < kLanes * r1; qa += kLanes) rank8<Shared, Energy>(c, k, qa, xi[0], a, ea);
-  for (; qb < kLanes * r2; qb += kLanes) rank8<Shared, Energy>(c, k, qb, xi[1], b, eb);
+  for (; qa < kLanes * r1; qa += kLanes) rank8<Shared, Energy, Rsqrt>(c, k, qa, xi[0], a, ea);
+  for (; qb < kLanes * r2; qb += kLanes) rank8<Shared, Energy, Rsqrt>(c, k, qb, xi[1], b, eb);
   for (int q = 0; q < 3; ++q) {
     f[0][q] = a[q];
     f[1][q] = b[q];
@@ -605,7 +667,7 @@ LD_AVX512 inline __m512i lanes8(const std::uint8_t* p) {
   return _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
 }
 
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   Consts512 k;
   k.zero = _mm512_setzero_pd();
@@ -658,7 +720,7 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       const __m512i sv = lanes8(c.slotVertex + t + kLanes * h);
       for (int a = 0; a < 3; ++a) xi[h][a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
     }
-    springs8x2<Shared, Energy>(c, k, grp, xi, f, pe);
+    springs8x2<Shared, Energy, Rsqrt>(c, k, grp, xi, f, pe);
     const bool extra = c.extra[grp] != 0;
     for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
       const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);
@@ -706,6 +768,32 @@ Kernel bestKernel() {
 }
 
 std::atomic<int> gForced{-1};
+std::atomic<int> gForcedFactor{-1};
+
+#ifdef LD_X86_KERNELS
+template <int Steps>
+LD_AVX512 void invSqrtAvx512(const double* l2, double* out, std::size_t n) {
+  for (std::size_t t = 0; t < n; t += 8) {
+    const __mmask8 mk = __mmask8((1u << std::min<std::size_t>(8, n - t)) - 1u);
+    _mm512_mask_storeu_pd(out + t, mk, invSqrt8<Steps>(_mm512_mask_loadu_pd(_mm512_set1_pd(1.0), mk, l2 + t)));
+  }
+}
+template <int Steps>
+LD_AVX2 void invSqrtAvx2(const double* l2, double* out, std::size_t n) {
+  for (std::size_t t = 0; t < n; t += 4) {
+    alignas(32) double buf[4] = {1.0, 1.0, 1.0, 1.0};
+    const std::size_t cnt = std::min<std::size_t>(4, n - t);
+    std::copy(l2 + t, l2 + t + cnt, buf);
+    _mm256_store_pd(buf, invSqrt4<Steps>(_mm256_load_pd(buf)));
+    std::copy(buf, buf + cnt, out + t);
+  }
+}
+template <int Steps>
+void invSqrtSteps(Kernel k, const double* l2, double* out, std::size_t n) {
+  if (k == Kernel::Avx512) invSqrtAvx512<Steps>(l2, out, n);
+  if (k == Kernel::Avx2) invSqrtAvx2<Steps>(l2, out, n);
+}
+#endif
 
 }  // namespace
 
@@ -734,6 +822,66 @@ bool forceKernel(std::optional<Kernel> k) {
   return true;
 }
 
+std::string_view factorName(Factor f) { return f == Factor::Rsqrt ? "rsqrt" : "sqrt-div"; }
+
+Factor defaultFactor(Kernel k) {
+  // Measured: on an Intel Xeon (one divider for sqrt and div) rsqrt wins on AVX-512 and
+  // loses on AVX2; on an AMD Zen 5 sqrt and div won on AVX-512 too.
+#ifdef LD_X86_KERNELS
+  static const bool intel = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_is("intel") != 0;
+  }();
+  return k == Kernel::Avx512 && intel ? Factor::Rsqrt : Factor::SqrtDiv;
+#else
+  (void)k;
+  return Factor::SqrtDiv;
+#endif
+}
+
+Factor activeFactor(Kernel k) {
+  const int f = gForcedFactor.load(std::memory_order_relaxed);
+  return f >= 0 ? static_cast<Factor>(f) : defaultFactor(k);
+}
+
+void forceFactor(std::optional<Factor> f) {
+  gForcedFactor.store(f ? static_cast<int>(*f) : -1, std::memory_order_relaxed);
+}
+
+int newtonSteps(Kernel k) {
+#ifdef LD_X86_KERNELS
+  if (k == Kernel::Avx512) return kNewtonAvx512;
+  if (k == Kernel::Avx2) return kNewtonAvx2;
+#endif
+  (void)k;
+  return 0;
+}
+
+void invSqrt(Kernel k, const double* l2, double* out, std::size_t n, int steps) {
+#ifdef LD_X86_KERNELS
+  if (k != Kernel::Scalar && kernelSupported(k)) {
+    switch (steps) {
+      case 0:
+        return invSqrtSteps<0>(k, l2, out, n);
+      case 1:
+        return invSqrtSteps<1>(k, l2, out, n);
+      case 2:
+        return invSqrtSteps<2>(k, l2, out, n);
+      case 3:
+        return invSqrtSteps<3>(k, l2, out, n);
+      case 4:
+        return invSqrtSteps<4>(k, l2, out, n);
+      case 5:
+        return invSqrtSteps<5>(k, l2, out, n);
+      default:
+        return invSqrtSteps<6>(k, l2, out, n);
+    }
+  }
+#endif
+  (void)steps;
+  for (std::size_t i = 0; i < n; ++i) out[i] = 1.0 / std::sqrt(l2[i]);
+}
+
 double springForces(Kernel kern, const SpringChunk& c) {
   switch (kern) {
 #ifdef LD_X86_KERNELS
@@ -748,26 +896,30 @@ double springForces(Kernel kern, const SpringChunk& c) {
 }
 
 namespace {
-// One path's four builds (lane layout × energy sums).
-template <template <bool, bool> class Path>
-void dispatch(const BlockStep& c, FinishSums& s) {
+// One path's builds (lane layout × energy sums × factor).
+template <template <bool, bool, bool> class Path, bool Rsqrt>
+void dispatchLayout(const BlockStep& c, FinishSums& s) {
   if (c.rankRest)
-    c.energy ? Path<false, true>::run(c, s) : Path<false, false>::run(c, s);
+    c.energy ? Path<false, true, Rsqrt>::run(c, s) : Path<false, false, Rsqrt>::run(c, s);
   else
-    c.energy ? Path<true, true>::run(c, s) : Path<true, false>::run(c, s);
+    c.energy ? Path<true, true, Rsqrt>::run(c, s) : Path<true, false, Rsqrt>::run(c, s);
 }
-template <bool Shared, bool Energy>
-struct ScalarPath {
+template <template <bool, bool, bool> class Path>
+void dispatch(const BlockStep& c, FinishSums& s) {
+  c.rsqrt ? dispatchLayout<Path, true>(c, s) : dispatchLayout<Path, false>(c, s);
+}
+template <bool Shared, bool Energy, bool>
+struct ScalarPath {  // the reference: always sqrt and div
   static void run(const BlockStep& c, FinishSums& s) { blockStepScalar<Shared, Energy>(c, s); }
 };
 #ifdef LD_X86_KERNELS
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 struct Avx2Path {
-  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx2<Shared, Energy>(c, s); }
+  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx2<Shared, Energy, Rsqrt>(c, s); }
 };
-template <bool Shared, bool Energy>
+template <bool Shared, bool Energy, bool Rsqrt>
 struct Avx512Path {
-  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx512<Shared, Energy>(c, s); }
+  static void run(const BlockStep& c, FinishSums& s) { blockStepAvx512<Shared, Energy, Rsqrt>(c, s); }
 };
 #endif
 }  // namespace

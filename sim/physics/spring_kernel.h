@@ -7,7 +7,8 @@
 // (tails are masked or padded, never done by a different scalar loop), so a vertex's
 // result does not depend on where a thread's range starts: the two-thread step stays
 // bit-identical to one thread on each path.
-// Paths differ from each other in the last bits (fused multiply-add).
+// Paths differ from each other in the last bits (fused multiply-add; in the symplectic
+// step the force factor's 1/l from rsqrt and Newton steps, within 1 ulp: see Factor).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -25,6 +26,33 @@ enum class Kernel { Scalar, Avx2, Avx512 };
 // For tests and benchmarks: force a path (nullopt = automatic). Returns false (and
 // changes nothing) when the path is not supported here.
 bool forceKernel(std::optional<Kernel> k);
+
+// How the vector paths get each spring's 1/l (the scalar path, the portable reference,
+// always takes sqrt and div):
+//  - Rsqrt: an estimate of 1/√(l²) refined by Newton steps to within 1 ulp, no divider
+//    (AVX-512: rsqrt14, 14 bits, and 2 steps; AVX2: a bit-trick estimate, ~5 bits, and
+//    4 steps); the force factor is then k − K·(1/l) (shared K) or k·(1 − rest·(1/l))
+//    (per spring);
+//  - SqrtDiv: sqrt and div, (k·l − K)/l and k(l − rest)/l, rounded as the scalar path.
+// Both mask l² = 0 and k = 0 the same way (the factor is exactly 0 there). Default
+// (defaultFactor), by measurement: Rsqrt on AVX-512 on Intel CPUs (on an Intel Xeon at
+// 2.6 GHz, whose one divider takes ~28 cycles for a rank's sqrt and div, the step is
+// 25–35 % faster), SqrtDiv elsewhere: on AVX2 (Rsqrt with 4 steps measured 10–20 %
+// slower on that Xeon) and on AMD CPUs (sqrt and div measured faster on a Zen 5).
+enum class Factor { SqrtDiv, Rsqrt };
+[[nodiscard]] std::string_view factorName(Factor f);
+[[nodiscard]] Factor defaultFactor(Kernel k);
+// The factor path k uses: its default unless a test or benchmark forced one.
+[[nodiscard]] Factor activeFactor(Kernel k);
+void forceFactor(std::optional<Factor> f);  // nullopt = each path's default
+// Newton steps path k takes after its estimate (0: the path divides).
+[[nodiscard]] int newtonSteps(Kernel k);
+// For tests: out[i] = 1/√l2[i] as path k's Rsqrt factor computes it, with `steps`
+// Newton steps (0 … 6; newtonSteps(k) is the step's); the scalar path divides. Call
+// with denormals flushed, as the step runs. Valid for l² in [2^-1021, DBL_MAX]
+// (below, 0.5·l² is flushed); l² = 0 gives a non-finite or huge value (the step
+// masks it).
+void invSqrt(Kernel k, const double* l2, double* out, std::size_t n, int steps);
 
 // Springs [0, m) of one chunk (vertex indices of both ends, rest, k). Each spring's
 // force g = k(l − rest)/l · (x_j − x_i) is added to f4[4·i] (unless addLower is off)
@@ -90,8 +118,10 @@ struct BlockStep {
   const std::uint8_t* extra = nullptr;  // per group: f4 holds forces for it
   std::size_t n = 0;                    // vertices
   std::size_t g0 = 0, g1 = 0;           // groups to step
+  std::size_t groups = 0;               // groups in the mesh (the prefetch's bound; 0: g1)
   double dt = 0, damp = 1, homeK = 0;
   double springK = 0;  // K of the shared-K layout (rankRest null)
+  bool rsqrt = false;  // Factor::Rsqrt (vector paths; the scalar path divides)
   // The monitor's sums: off, only Σ|v1|² and the home sum are taken (enough to see a
   // non-finite step); pe, kv2, ke1, work and maxComp2 stay 0 and `stiffness` is not
   // read (a step without the monitor needs none of them).

@@ -2,7 +2,9 @@
 // step and ns per spring, CPU time of the stepping thread); the symplectic step on
 // one and two threads, with and without the stability monitor, and on each compiled
 // kernel path (scalar, AVX2, AVX-512: BM_SymplecticKernel), with the per-spring
-// lanes instead of the shared-K ones (BM_SymplecticPerSpringLanes); the symplectic step of
+// lanes instead of the shared-K ones (BM_SymplecticPerSpringLanes), with sqrt and div
+// for the force factor instead of rsqrt and Newton (BM_SymplecticSqrtDiv, and the last
+// argument of BM_SymplecticKernel); the symplectic step of
 // the default slab before and after ~1000 triangles cut with the CutEngine (stepped
 // in place on the engine's mesh); the cost of a topology edit to the physics.
 //   physics_bench                                     (all, about a minute)
@@ -83,15 +85,28 @@ void BM_Xpbd(benchmark::State& bs) { runSteps(bs, Method::Xpbd, false, 1); }  //
 
 // The symplectic step (no monitor) on each compiled kernel path: range(1) = 0 scalar,
 // 1 AVX2+FMA, 2 AVX-512 (skipped where the CPU lacks it); range(2) = threads.
+// Arguments: triangles, kernel path (0 scalar, 1 AVX2, 2 AVX-512), threads, force
+// factor (0 sqrt and div, 1 rsqrt and Newton; the scalar path always divides).
 void BM_SymplecticKernel(benchmark::State& bs) {
   const auto kern = static_cast<detail::Kernel>(bs.range(1));
   if (!detail::forceKernel(kern)) {
     bs.SkipWithError("kernel not supported on this CPU");
     return;
   }
+  const auto fac = static_cast<detail::Factor>(bs.range(3));
+  detail::forceFactor(fac);
   runSteps(bs, Method::SymplecticEuler, false, static_cast<int>(bs.range(2)));
   detail::forceKernel(std::nullopt);
-  bs.SetLabel(std::string(detail::kernelName(kern)));
+  detail::forceFactor(std::nullopt);
+  bs.SetLabel(std::string(detail::kernelName(kern)) + " " + std::string(detail::factorName(fac)));
+}
+
+// The symplectic step (best path, one thread, no monitor) with sqrt and div for the
+// force factor instead of rsqrt and Newton steps: BM_Symplectic's comparison.
+void BM_SymplecticSqrtDiv(benchmark::State& bs) {
+  detail::forceFactor(detail::Factor::SqrtDiv);
+  runSteps(bs, Method::SymplecticEuler, false, 1);
+  detail::forceFactor(std::nullopt);
 }
 
 // The symplectic step (one thread, no monitor) with the per-spring lanes (far end, k,
@@ -110,8 +125,9 @@ BENCHMARK(BM_Symplectic2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticMonitored) LD_SIZES;
 BENCHMARK(BM_SymplecticPerSpringLanes) LD_SIZES;
 BENCHMARK(BM_SymplecticMonitored2Threads) LD_SIZES->UseRealTime();
+BENCHMARK(BM_SymplecticSqrtDiv) LD_SIZES;
 BENCHMARK(BM_SymplecticKernel)
-    ->ArgsProduct({{10000, 100000}, {0, 1, 2}, {1, 2}})
+    ->ArgsProduct({{10000, 100000}, {0, 1, 2}, {1, 2}, {0, 1}})
     ->Unit(benchmark::kMicrosecond)
     ->MinTime(0.1)
     ->UseRealTime();

@@ -1,9 +1,13 @@
 // The vectorised symplectic kernels (spring_kernel.h) against the portable scalar
 // path: on a mesh after local edits (irregular valence, deleted faces, appended
 // vertices, springs added since the last rebuild), with gravity, external forces and
-// motion, every compiled path gives the scalar result to rounding, one and two threads
-// agree bit for bit on each path, and the monitor's decisions are the same.
+// motion, every compiled path gives the scalar result to rounding with either force
+// factor (rsqrt and Newton, or sqrt and div: detail::Factor), one and two threads agree
+// bit for bit on each path, and the monitor's decisions are the same. The rsqrt
+// factor's 1/l is checked against 1/√l² directly (within 2 ulp, and not with one
+// Newton step fewer).
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <random>
 #include <string>
@@ -37,6 +41,14 @@ std::vector<Kernel> compiledKernels() {
     if (detail::kernelSupported(k)) out.push_back(k);
   return out;
 }
+
+// Forces the vector paths' force factor (detail::Factor) while it lives.
+struct ForcedFactor {
+  explicit ForcedFactor(detail::Factor f) { detail::forceFactor(f); }
+  ~ForcedFactor() { detail::forceFactor(std::nullopt); }
+  ForcedFactor(const ForcedFactor&) = delete;
+  ForcedFactor& operator=(const ForcedFactor&) = delete;
+};
 
 // Builds the per-spring lanes (20 bytes) while it lives, whatever the springs.
 struct ForcedPerSpringLanes {
@@ -90,6 +102,21 @@ TEST(SpringKernel, ScalarAlwaysThereAndForcingWorks) {
     EXPECT_EQ(detail::activeKernel(), Kernel::Scalar);
   }
   EXPECT_EQ(detail::activeKernel(), automatic);
+  // The force factor: each path's default (measured: rsqrt on AVX-512 on Intel CPUs,
+  // sqrt and div elsewhere), or the one forced.
+  for (Kernel k : {Kernel::Scalar, Kernel::Avx2, Kernel::Avx512})
+    EXPECT_EQ(detail::activeFactor(k), detail::defaultFactor(k));
+  EXPECT_EQ(detail::defaultFactor(Kernel::Avx2), detail::Factor::SqrtDiv);
+  EXPECT_EQ(detail::defaultFactor(Kernel::Scalar), detail::Factor::SqrtDiv);
+  {
+    ForcedFactor f(detail::Factor::SqrtDiv);
+    EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::Factor::SqrtDiv);
+  }
+  {
+    ForcedFactor f(detail::Factor::Rsqrt);
+    EXPECT_EQ(detail::activeFactor(Kernel::Avx2), detail::Factor::Rsqrt);
+  }
+  EXPECT_EQ(detail::activeFactor(Kernel::Avx512), detail::defaultFactor(Kernel::Avx512));
   for (Kernel k : {Kernel::Avx2, Kernel::Avx512})
     if (!detail::kernelSupported(k)) {
       EXPECT_FALSE(detail::forceKernel(k)) << detail::kernelName(k);
@@ -113,27 +140,29 @@ TEST(SpringKernel, EveryPathMatchesTheScalarStepOnAnEditedMesh) {
   ASSERT_GT(ref.cache.springs.size(), ref.cache.nCsr) << "the edits should leave added springs";
   const double xScale = maxNorm(ref.mesh.positions()), vScale = maxNorm(velocities(ref));
   ASSERT_GT(vScale, 1.0);
-  for (Kernel k : compiledKernels()) {
-    SCOPED_TRACE(std::string(detail::kernelName(k)));
-    ForcedKernel f(k);
-    ASSERT_TRUE(f.ok);
-    std::vector<Vec3> oneThread;
-    for (int threads : {1, 2}) {
-      SCOPED_TRACE(threads);
-      Params pt = p;
-      pt.threads = threads;
-      State s;
-      editedScene(pt, s);
-      for (int i = 0; i < kSteps; ++i) ASSERT_TRUE(rawStep(pt, s, Method::SymplecticEuler, dt));
-      EXPECT_EQ(s.cache.springs.size(), ref.cache.springs.size());
-      EXPECT_LT(testutil::maxDiff(s.mesh.positions(), ref.mesh.positions()), 1e-13 * xScale);
-      EXPECT_LT(testutil::maxDiff(velocities(s), velocities(ref)), 1e-11 * vScale);
-      if (threads == 1)
-        oneThread = s.mesh.positions();
-      else
-        EXPECT_EQ(s.mesh.positions(), oneThread) << "two threads must be bit-identical to one";
+  for (Kernel k : compiledKernels())
+    for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv}) {
+      SCOPED_TRACE(std::string(detail::kernelName(k)) + " " + std::string(detail::factorName(fac)));
+      ForcedKernel f(k);
+      ASSERT_TRUE(f.ok);
+      ForcedFactor ff(fac);
+      std::vector<Vec3> oneThread;
+      for (int threads : {1, 2}) {
+        SCOPED_TRACE(threads);
+        Params pt = p;
+        pt.threads = threads;
+        State s;
+        editedScene(pt, s);
+        for (int i = 0; i < kSteps; ++i) ASSERT_TRUE(rawStep(pt, s, Method::SymplecticEuler, dt));
+        EXPECT_EQ(s.cache.springs.size(), ref.cache.springs.size());
+        EXPECT_LT(testutil::maxDiff(s.mesh.positions(), ref.mesh.positions()), 1e-13 * xScale);
+        EXPECT_LT(testutil::maxDiff(velocities(s), velocities(ref)), 1e-11 * vScale);
+        if (threads == 1)
+          oneThread = s.mesh.positions();
+        else
+          EXPECT_EQ(s.mesh.positions(), oneThread) << "two threads must be bit-identical to one";
+      }
     }
-  }
 }
 
 // One symplectic step of s against the force pass, which walks the CSR by lower
@@ -165,26 +194,28 @@ double oneStepAgainstForcePass(const Params& p, State& s) {
 // every path, one and two threads, with new vertices past the last full group of 16,
 // in both lane layouts.
 void expectStepMatchesForcePass(int cells) {
-  for (Kernel k : compiledKernels()) {
-    SCOPED_TRACE(std::string(detail::kernelName(k)));
-    ForcedKernel fk(k);
-    for (bool perSpring : {false, true}) {
-      SCOPED_TRACE(perSpring ? "per-spring lanes" : "shared-K lanes");
-      std::optional<ForcedPerSpringLanes> forced;
-      if (perSpring) forced.emplace();
-      for (int threads : {1, 2}) {
-        SCOPED_TRACE(threads);
-        Params p;
-        p.threads = threads;
-        State s;
-        editedScene(p, s, cells);
-        ASSERT_NE(s.mesh.verticesSize() % detail::kGroup, 0u) << "want a partial last group";
-        EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
-        EXPECT_GT(s.cache.springs.size(), s.cache.nCsr);
-        EXPECT_EQ(s.cache.laneLayout, perSpring ? detail::LaneLayout::PerSpring : detail::LaneLayout::SharedK);
+  for (Kernel k : compiledKernels())
+    for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv}) {
+      SCOPED_TRACE(std::string(detail::kernelName(k)) + " " + std::string(detail::factorName(fac)));
+      ForcedKernel fk(k);
+      ForcedFactor ff(fac);
+      for (bool perSpring : {false, true}) {
+        SCOPED_TRACE(perSpring ? "per-spring lanes" : "shared-K lanes");
+        std::optional<ForcedPerSpringLanes> forced;
+        if (perSpring) forced.emplace();
+        for (int threads : {1, 2}) {
+          SCOPED_TRACE(threads);
+          Params p;
+          p.threads = threads;
+          State s;
+          editedScene(p, s, cells);
+          ASSERT_NE(s.mesh.verticesSize() % detail::kGroup, 0u) << "want a partial last group";
+          EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+          EXPECT_GT(s.cache.springs.size(), s.cache.nCsr);
+          EXPECT_EQ(s.cache.laneLayout, perSpring ? detail::LaneLayout::PerSpring : detail::LaneLayout::SharedK);
+        }
       }
     }
-  }
 }
 
 TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnEveryPath) { expectStepMatchesForcePass(50); }
@@ -302,26 +333,28 @@ TEST(SpringKernel, SharedKLanesMatchPerSpringLanes) {
 // rawStep leaves out the sums only the monitor reads (spring energy, Σ K_i|v1_i|²):
 // the motion is bit-identical to a monitored step's, in both lane layouts.
 TEST(SpringKernel, SkippingTheMonitorsSumsChangesNoBit) {
-  for (Kernel k : compiledKernels()) {
-    SCOPED_TRACE(std::string(detail::kernelName(k)));
-    ForcedKernel fk(k);
-    for (bool perSpring : {false, true}) {
-      std::optional<ForcedPerSpringLanes> forced;
-      if (perSpring) forced.emplace();
-      Params p;
-      State raw, monitored;
-      editedScene(p, raw, 50, true);
-      editedScene(p, monitored, 50, true);
-      for (int i = 0; i < 3; ++i) {
-        ASSERT_TRUE(rawStep(p, raw, Method::SymplecticEuler, 1e-5));
-        const StepInfo info = step(p, monitored, 1e-5);
-        ASSERT_TRUE(info.accepted);
-        ASSERT_EQ(info.substeps, 1);
+  for (Kernel k : compiledKernels())
+    for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv}) {
+      SCOPED_TRACE(std::string(detail::kernelName(k)) + " " + std::string(detail::factorName(fac)));
+      ForcedKernel fk(k);
+      ForcedFactor ff(fac);
+      for (bool perSpring : {false, true}) {
+        std::optional<ForcedPerSpringLanes> forced;
+        if (perSpring) forced.emplace();
+        Params p;
+        State raw, monitored;
+        editedScene(p, raw, 50, true);
+        editedScene(p, monitored, 50, true);
+        for (int i = 0; i < 3; ++i) {
+          ASSERT_TRUE(rawStep(p, raw, Method::SymplecticEuler, 1e-5));
+          const StepInfo info = step(p, monitored, 1e-5);
+          ASSERT_TRUE(info.accepted);
+          ASSERT_EQ(info.substeps, 1);
+        }
+        EXPECT_EQ(raw.mesh.positions(), monitored.mesh.positions());
+        EXPECT_EQ(velocities(raw), velocities(monitored));
       }
-      EXPECT_EQ(raw.mesh.positions(), monitored.mesh.positions());
-      EXPECT_EQ(velocities(raw), velocities(monitored));
     }
-  }
 }
 
 // A mesh whose springs do not share one K (one spring set by hand; edges a cut
@@ -403,6 +436,82 @@ TEST(SpringKernel, NonFiniteIsReportedOnEveryPath) {
       EXPECT_FALSE(rawStep(pt, t, Method::SymplecticEuler, 1e-4));
       State u = start;
       EXPECT_TRUE(rawStep(pt, u, Method::SymplecticEuler, 1e-4));
+    }
+  }
+}
+
+// Largest relative error of path k's 1/√l² (detail::invSqrt, `steps` Newton steps)
+// against a long double reference, over log-uniform random l² in [2^-1021, 2^1023]
+// (every exponent the step can meet above the flushed denormals), the tissue's range
+// (l from 1e-3 to 1e3 mm) and edge cases (powers of two and their neighbours, where
+// the estimates' errors peak, the ends of the range).
+double invSqrtError(Kernel k, int steps) {
+  FlushDenormals ftz;
+  std::vector<double> l2;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> e(-1021.0, 1023.0), t(-6.0, 6.0);
+  for (int i = 0; i < 200000; ++i) l2.push_back(std::exp2(e(rng)));
+  for (int i = 0; i < 200000; ++i) l2.push_back(std::pow(10.0, t(rng)));
+  for (int p = -1021; p <= 1023; ++p) {
+    const double x = std::ldexp(1.0, p);
+    l2.insert(l2.end(), {x, std::nextafter(x, 0.0), std::nextafter(x, 2.0 * x), 1.5 * x, 1.25 * x, 1.75 * x});
+  }
+  l2.push_back(std::numeric_limits<double>::max());
+  std::vector<double> y(l2.size());
+  detail::invSqrt(k, l2.data(), y.data(), l2.size(), steps);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < l2.size(); ++i) {
+    if (!(l2[i] >= std::ldexp(1.0, -1021)) || !std::isfinite(l2[i])) continue;  // (the nextafter below 2^-1021)
+    const long double ref = 1.0L / std::sqrt(static_cast<long double>(l2[i]));
+    const double err = static_cast<double>(std::fabs((static_cast<long double>(y[i]) - ref) / ref));
+    worst = std::isfinite(y[i]) ? std::max(worst, err) : std::numeric_limits<double>::infinity();
+  }
+  return worst;
+}
+
+// The vector paths' 1/l (Factor::Rsqrt: an estimate and Newton steps, no divider) is
+// within 2 ulp-equivalent (2·2^-52 relative) of 1/√l² over every exponent, and one
+// Newton step fewer would not be (the test can fail). The force factor k − K·(1/l)
+// then differs from (k·l − K)/l by about that relative error times K/(k·l − K)
+// (~2.3 at the tissue's pre-stretch 0.7): the step's tolerances against the scalar path
+// (1e-13 of the positions, 1e-11 of the velocities after 10 steps) hold it easily.
+TEST(SpringKernel, RsqrtFactorIsWithinTwoUlpOfOneOverSqrt) {
+  constexpr double kTol = 2.0 * std::numeric_limits<double>::epsilon();
+  for (Kernel k : compiledKernels()) {
+    if (k == Kernel::Scalar) continue;
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    const int steps = detail::newtonSteps(k);
+    ASSERT_GT(steps, 0);
+    const double err = invSqrtError(k, steps);
+    EXPECT_LE(err, kTol);
+    RecordProperty(std::string(detail::kernelName(k)) + "_ulp", std::to_string(err / kTol * 2.0));
+    EXPECT_GT(invSqrtError(k, steps - 1), 1e3 * kTol) << "one Newton step fewer should not be enough";
+  }
+  EXPECT_EQ(detail::newtonSteps(Kernel::Scalar), 0);
+}
+
+// Coinciding ends (l = 0) give a factor of exactly 0 on every path and factor, never
+// NaN or ∞: a vertex moved onto its neighbour, and the step still agrees with the
+// force pass (which skips l = 0 too).
+TEST(SpringKernel, ZeroLengthSpringsAddNothingWithEitherFactor) {
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel fk(k);
+    for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv}) {
+      SCOPED_TRACE(std::string(detail::factorName(fac)));
+      ForcedFactor ff(fac);
+      for (bool perSpring : {false, true}) {
+        std::optional<ForcedPerSpringLanes> forced;
+        if (perSpring) forced.emplace();
+        Params p;
+        State s;
+        editedScene(p, s, 50, true);
+        const mesh::Vertex a = nearestVertex(s.mesh, Vec3(60, 60, 0));
+        const mesh::Vertex b = s.mesh.otherVertex(s.mesh.edges(a).front(), a);
+        s.mesh.position(a) = s.mesh.position(b);
+        EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+        for (const Vec3& x : s.mesh.positions()) ASSERT_TRUE(x.allFinite());
+      }
     }
   }
 }
