@@ -173,7 +173,8 @@ TEST(Validity, PhysicsGraspForceRanksAndLeavesTheCutNearlyUnchanged) {
   // track restarts: with the physics kernel paths, which agree to ~1e-13, it was
   // 14.2 mm² (AVX2 or AVX-512 with sqrt and div), 14.4 (AVX2, rsqrt), 18.5 (the scalar
   // reference, and AVX-512 with rsqrt; walk failures 68 against 19) against 9.4 still.
-  EXPECT_TRUE(test::near(on.metrics.deviation.total(), off.metrics.deviation.total(), 0.0, 0.6));
+  EXPECT_TRUE(test::near(on.metrics.deviation.total(), off.metrics.deviation.total(), 0.0, 0.6))
+      << on.metrics.deviation.total() << " vs " << off.metrics.deviation.total();
   EXPECT_TRUE(test::near(on.metrics.cutDistanceMeanMm, off.metrics.cutDistanceMeanMm, 0.3));
   EXPECT_TRUE(test::near(on.metrics.bandFraction, off.metrics.bandFraction, 0.01));
   // A lip retracting from the hook can lose contact for a sample (one break more); the
