@@ -183,6 +183,30 @@ class PropertyContainer {
     for (auto& a : arrays_) a->pushBack();
     ++size_;
   }
+  // The same for an owner that knows the types of the first `typed` arrays (a mesh's
+  // built-ins, always added first): every array gets room first, then `push` appends
+  // exactly one element to each of those arrays itself (no virtual call, and their
+  // values at once rather than defaults), and the other arrays get their default.
+  template <class Push>
+  void pushBackTyped(std::size_t typed, Push&& push) {
+    assert(typed <= arrays_.size());
+    roomForOne();
+    push();
+    for (std::size_t i = typed; i < arrays_.size(); ++i) arrays_[i]->pushBack();
+    ++size_;
+  }
+  // As pushBackTyped, the other arrays getting a copy of element `from`.
+  template <class Push>
+  void pushBackCopyTyped(std::size_t typed, std::size_t from, Push&& push) {
+    assert(typed <= arrays_.size() && from < size_);
+    roomForOne();
+    push();
+    for (std::size_t i = typed; i < arrays_.size(); ++i) arrays_[i]->pushBackCopy(from);
+    ++size_;
+  }
+  // The i-th array in the order of add() (removals keep the others' order).
+  [[nodiscard]] const BasePropertyArray& array(std::size_t i) const { return *arrays_[i]; }
+  [[nodiscard]] std::size_t arrayCount() const { return arrays_.size(); }
   void resize(std::size_t n) {
     for (auto& a : arrays_) a->resize(n);
     size_ = n;

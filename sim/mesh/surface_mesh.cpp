@@ -57,6 +57,15 @@ void SurfaceMesh::bindProperties() {
   fverts_ = getFaceProperty<std::array<Vertex, 3>>("f:vertices");
   fedges_ = getFaceProperty<std::array<Edge, 3>>("f:edges");
   fdeleted_ = getFaceProperty<std::uint8_t>("f:deleted");
+  // The edits append to the built-ins directly (PropertyContainer::pushBackTyped): they
+  // must be the first three arrays of their containers, as initBuiltins adds them.
+  auto firstAre = [](const PropertyContainer& c, const char* a, const char* b, const char* d) {
+    return c.arrayCount() >= 3 && c.array(0).name() == a && c.array(1).name() == b && c.array(2).name() == d;
+  };
+  if (!firstAre(vprops_, "v:point", "v:edges", "v:deleted") ||
+      !firstAre(eprops_, "e:vertices", "e:faces", "e:deleted") ||
+      !firstAre(fprops_, "f:vertices", "f:edges", "f:deleted"))
+    throw PropertyError("built-in properties out of place");
 }
 
 SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
@@ -167,10 +176,18 @@ void SurfaceMesh::check(Face f, const char* where) const {
 
 // ---- low-level element creation --------------------------------------------
 
+// The built-in arrays are appended to with their values (kBuiltins per kind, see
+// bindProperties), the attached properties get their defaults or copies.
+constexpr std::size_t kBuiltins = 3;
+
 Vertex SurfaceMesh::addVertex(const Point& p) {
-  vprops_.pushBack();
+  const Point at = p;  // p may be a position of this mesh
+  vprops_.pushBackTyped(kBuiltins, [&] {
+    points_.vector().push_back(at);
+    vedges_.vector().emplace_back();
+    vdeleted_.vector().push_back(0);
+  });
   Vertex v(verticesSize() - 1);
-  points_[v] = p;
   journalV_.push_back(v);
   return v;
 }
@@ -184,32 +201,50 @@ void SurfaceMesh::addEdgeToVertex(Vertex v, Edge e) {
 }
 
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
-  eprops_.pushBack();
+  eprops_.pushBackTyped(kBuiltins, [&] {
+    everts_.vector().push_back({a, b});
+    efaces_.vector().push_back({Face(), Face()});
+    edeleted_.vector().push_back(0);
+  });
   return linkNewEdge(a, b);
 }
 
 Face SurfaceMesh::newFace() {
-  fprops_.pushBack();
+  fprops_.pushBackTyped(kBuiltins, [&] {
+    fverts_.vector().emplace_back();
+    fedges_.vector().emplace_back();
+    fdeleted_.vector().push_back(0);
+  });
   return journalNewFace();
 }
 
-// A new edge (a, b) with the properties of `from` (one pass over the property arrays).
+// A new edge (a, b), without faces, with the attached properties of `from` (one pass
+// over the property arrays).
 Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
-  eprops_.pushBackCopy(from.idx());
+  const std::uint8_t deleted = edeleted_[from];
+  eprops_.pushBackCopyTyped(kBuiltins, from.idx(), [&] {
+    everts_.vector().push_back({a, b});
+    efaces_.vector().push_back({Face(), Face()});
+    edeleted_.vector().push_back(deleted);
+  });
   return linkNewEdge(a, b);
 }
 
-// A new face with the properties of `from` (its corners and sides are set by attachFace).
+// A new face with the attached properties of `from` (its corners and sides are set by
+// attachFace).
 Face SurfaceMesh::newFaceCopy(Face from) {
-  fprops_.pushBackCopy(from.idx());
+  const std::uint8_t deleted = fdeleted_[from];
+  fprops_.pushBackCopyTyped(kBuiltins, from.idx(), [&] {
+    fverts_.vector().emplace_back();
+    fedges_.vector().emplace_back();
+    fdeleted_.vector().push_back(deleted);
+  });
   return journalNewFace();
 }
 
-// The last edge (just pushed) as (a, b), without faces, listed at both ends.
+// The last edge (just pushed as (a, b) without faces) listed at both ends.
 Edge SurfaceMesh::linkNewEdge(Vertex a, Vertex b) {
   const Edge e(edgesSize() - 1);
-  everts_[e] = {a, b};
-  efaces_[e] = {Face(), Face()};
   addEdgeToVertex(a, e);
   addEdgeToVertex(b, e);
   journalE_.push_back(e);
@@ -436,12 +471,15 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   if (2 * fan.size() >= sides) return Vertex();
   auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
 
-  // v's edge list is set aside while its properties are copied: the copy's list is
-  // built below, so copying v's list (an allocation and a copy) would be wasted.
-  std::vector<Edge> aside;
-  aside.swap(vedges_[v]);
-  vprops_.pushBackCopy(v.idx());
-  vedges_[v].swap(aside);
+  // The copy's edge list is built below (copying v's would be an allocation and a
+  // copy wasted).
+  const Point at = points_[v];
+  const std::uint8_t deleted = vdeleted_[v];
+  vprops_.pushBackCopyTyped(kBuiltins, v.idx(), [&] {
+    points_.vector().push_back(at);
+    vedges_.vector().emplace_back();
+    vdeleted_.vector().push_back(deleted);
+  });
   const Vertex nv(verticesSize() - 1);
   journalV_.push_back(v);
   journalV_.push_back(nv);
