@@ -188,16 +188,15 @@ Vertex SurfaceMesh::addVertex(const Point& p) {
     vdeleted_.vector().push_back(0);
   });
   Vertex v(verticesSize() - 1);
-  journalV_.push_back(v);
+  record(journalV_, v);
   return v;
 }
 
 // A new vertex's edge list gets room for a usual valence at once, instead of
-// growing 1, 2, 4, 8 (one allocation instead of four).
-void SurfaceMesh::addEdgeToVertex(Vertex v, Edge e) {
-  auto& list = vedges_[v];
-  if (list.capacity() == 0) list.reserve(8);
-  list.push_back(e);
+// growing 1, 2, 4, 8 (one allocation instead of four). Out of line: the edits call
+// addEdgeToVertex (inline, in the header) many times per edit.
+void SurfaceMesh::growEdgeList(std::vector<Edge>& list) {
+  list.reserve(list.capacity() == 0 ? 8 : 2 * list.capacity());
 }
 
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
@@ -247,13 +246,13 @@ Edge SurfaceMesh::linkNewEdge(Vertex a, Vertex b) {
   const Edge e(edgesSize() - 1);
   addEdgeToVertex(a, e);
   addEdgeToVertex(b, e);
-  journalE_.push_back(e);
+  record(journalE_, e);
   return e;
 }
 
 Face SurfaceMesh::journalNewFace() {
   const Face f(facesSize() - 1);
-  journalF_.push_back(f);
+  record(journalF_, f);
   return f;
 }
 
@@ -275,9 +274,9 @@ void SurfaceMesh::removeEdgeFromVertex(Vertex v, Edge e) {
 }
 
 void SurfaceMesh::detachFace(Face f) {
-  journalF_.push_back(f);
+  record(journalF_, f);
   for (Edge e : fedges_[f]) {
-    journalE_.push_back(e);
+    record(journalE_, e);
     auto& ef = efaces_[e];
     if (ef[0] == f) {
       ef[0] = ef[1];
@@ -290,7 +289,7 @@ void SurfaceMesh::detachFace(Face f) {
 
 void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known, bool missingAreNew) {
   fverts_[f] = {a, b, c};
-  journalF_.push_back(f);
+  record(journalF_, f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
@@ -302,7 +301,7 @@ void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Ed
     else
       ef[1] = f;
     fedges_[f][i] = e;
-    journalE_.push_back(e);
+    record(journalE_, e);
   }
 }
 
@@ -312,7 +311,7 @@ void SurfaceMesh::deleteEmptyEdge(Edge e) {
   removeEdgeFromVertex(everts_[e][1], e);
   edeleted_[e] = 1;
   ++deletedEdges_;
-  journalE_.push_back(e);
+  record(journalE_, e);
 }
 
 // ---- edits ----------------------------------------------------------------------
@@ -359,7 +358,7 @@ void SurfaceMesh::deleteFace(Face f) {
   for (Edge e : fedges_[f]) deleteEmptyEdge(e);
   fdeleted_[f] = 1;
   ++deletedFaces_;
-  journalF_.push_back(f);
+  record(journalF_, f);
   ++topologyVersion_;
 }
 
@@ -370,7 +369,7 @@ void SurfaceMesh::deleteVertex(Vertex v) {
   for (Face f : around) deleteFace(f);
   vdeleted_[v] = 1;
   ++deletedVertices_;
-  journalV_.push_back(v);
+  record(journalV_, v);
   ++topologyVersion_;
 }
 
@@ -393,7 +392,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   removeEdgeFromVertex(b, e);
   everts_[e] = {a, m};
   addEdgeToVertex(m, e);
-  journalE_.push_back(e);
+  record(journalE_, e);
   const Edge e2 = newEdgeCopy(e, m, b);
   for (std::size_t k = 0; k < 2; ++k) {
     if (!fs[k].isValid()) continue;
@@ -481,8 +480,8 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     vdeleted_.vector().push_back(deleted);
   });
   const Vertex nv(verticesSize() - 1);
-  journalV_.push_back(v);
-  journalV_.push_back(nv);
+  record(journalV_, v);
+  record(journalV_, nv);
 
   // (fan face, edge it leaves, the copy it takes instead)
   auto& swaps = scratch_.swaps;
@@ -499,14 +498,14 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     if (in0 && (in1 || !f1.isValid())) {
       everts_[e] = ends;
       addEdgeToVertex(nv, e);
-      journalE_.push_back(e);
+      record(journalE_, e);
       continue;
     }
     list[keep++] = e;
     if (!in0 && !in1) continue;
     const Face moved = in0 ? f0 : f1;
     efaces_[e] = {in0 ? f1 : f0, Face()};
-    journalE_.push_back(e);
+    record(journalE_, e);
     const Edge c = newEdgeCopy(e, ends[0], ends[1]);  // journals c
     efaces_[c] = {moved, Face()};
     swaps.push_back({moved, e, c});
@@ -515,7 +514,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   for (Face f : fan) {
     for (auto& x : fverts_[f])
       if (x == v) x = nv;
-    journalF_.push_back(f);
+    record(journalF_, f);
   }
   for (const auto& s : swaps)
     for (auto& fe : fedges_[s.face])

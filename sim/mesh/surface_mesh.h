@@ -11,6 +11,7 @@
 // Edits state their preconditions; an edit that cannot be done returns an invalid
 // handle and leaves the mesh untouched. Misuse (a dead or foreign handle) throws
 // InvalidHandleError.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -90,6 +91,36 @@ struct BoundingBox {
   [[nodiscard]] Point extent() const { return max - min; }
 };
 
+// An append-only list of handles (the edit journal): an append is a store and an
+// increment, the growth (geometric) out of line. Moving leaves the source empty.
+template <class H>
+class HandleLog {
+ public:
+  HandleLog() = default;
+  HandleLog(const HandleLog&) = delete;
+  HandleLog& operator=(const HandleLog&) = delete;
+  HandleLog(HandleLog&& o) noexcept : data_(std::move(o.data_)), size_(std::exchange(o.size_, 0)) { o.data_.clear(); }
+  HandleLog& operator=(HandleLog&& o) noexcept {
+    data_ = std::move(o.data_);
+    size_ = std::exchange(o.size_, 0);
+    o.data_.clear();
+    return *this;
+  }
+  ~HandleLog() = default;
+  void push(H h) {
+    if (size_ == data_.size()) [[unlikely]]
+      grow();
+    data_[size_++] = h;
+  }
+  void clear() { size_ = 0; }
+  [[nodiscard]] std::span<const H> view() const { return {data_.data(), size_}; }
+
+ private:
+  [[gnu::noinline]] void grow() { data_.resize(std::max<std::size_t>(64, 2 * data_.size())); }
+  std::vector<H> data_;  // the slots; the first size_ are the log
+  std::size_t size_ = 0;
+};
+
 // Iterates over the live elements of one kind.
 template <class H>
 class HandleRange {
@@ -163,9 +194,9 @@ class SurfaceMesh {
   // contents replaced) empties the journal: rebuild. Moving a mesh keeps it.
   // The journal grows by a few handles per edit until the next layout change.
   [[nodiscard]] std::uint64_t layoutVersion() const { return layoutVersion_; }
-  [[nodiscard]] std::span<const Vertex> editedVertices() const { return journalV_; }
-  [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_; }
-  [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_; }
+  [[nodiscard]] std::span<const Vertex> editedVertices() const { return journalV_.view(); }
+  [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_.view(); }
+  [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_.view(); }
 
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
 
@@ -355,7 +386,17 @@ class SurfaceMesh {
   Face newFaceCopy(Face from);
   Edge linkNewEdge(Vertex a, Vertex b);  // the tail of newEdge / newEdgeCopy
   Face journalNewFace();
-  void addEdgeToVertex(Vertex v, Edge e);
+  void addEdgeToVertex(Vertex v, Edge e) {
+    auto& list = vedges_[v];
+    if (list.size() == list.capacity()) [[unlikely]]
+      growEdgeList(list);
+    list.push_back(e);
+  }
+  [[gnu::noinline]] static void growEdgeList(std::vector<Edge>& list);
+  template <class H>
+  static void record(HandleLog<H>& journal, H h) {
+    journal.push(h);
+  }
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
   // empty) and give it new vertices, finding or creating its edges (`known`: the
   // edges already found for (a,b), (b,c), (c,a), invalid where not looked up).
@@ -385,9 +426,9 @@ class SurfaceMesh {
   std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
   std::uint64_t topologyVersion_ = 0;
   std::uint64_t layoutVersion_;
-  std::vector<Vertex> journalV_;
-  std::vector<Edge> journalE_;
-  std::vector<Face> journalF_;
+  HandleLog<Vertex> journalV_;
+  HandleLog<Edge> journalE_;
+  HandleLog<Face> journalF_;
   void newLayout();
 
   // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
