@@ -15,8 +15,11 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -95,30 +98,49 @@ struct BoundingBox {
 // increment, the growth (geometric) out of line. Moving leaves the source empty.
 template <class H>
 class HandleLog {
+  static_assert(std::is_trivially_copyable_v<H> && std::is_trivially_destructible_v<H>);
+
  public:
   HandleLog() = default;
   HandleLog(const HandleLog&) = delete;
   HandleLog& operator=(const HandleLog&) = delete;
-  HandleLog(HandleLog&& o) noexcept : data_(std::move(o.data_)), size_(std::exchange(o.size_, 0)) { o.data_.clear(); }
+  HandleLog(HandleLog&& o) noexcept
+      : data_(std::exchange(o.data_, nullptr)), size_(std::exchange(o.size_, 0)), cap_(std::exchange(o.cap_, 0)) {}
   HandleLog& operator=(HandleLog&& o) noexcept {
-    data_ = std::move(o.data_);
-    size_ = std::exchange(o.size_, 0);
-    o.data_.clear();
+    if (this != &o) {
+      release();
+      data_ = std::exchange(o.data_, nullptr);
+      size_ = std::exchange(o.size_, 0);
+      cap_ = std::exchange(o.cap_, 0);
+    }
     return *this;
   }
-  ~HandleLog() = default;
+  ~HandleLog() { release(); }
   void push(H h) {
-    if (size_ == data_.size()) [[unlikely]]
+    if (size_ == cap_) [[unlikely]]
       grow();
-    data_[size_++] = h;
+    std::construct_at(data_ + size_, h);
+    ++size_;
   }
   void clear() { size_ = 0; }
-  [[nodiscard]] std::span<const H> view() const { return {data_.data(), size_}; }
+  [[nodiscard]] std::span<const H> view() const { return {data_, size_}; }
 
  private:
-  [[gnu::noinline]] void grow() { data_.resize(std::max<std::size_t>(64, 2 * data_.size())); }
-  std::vector<H> data_;  // the slots; the first size_ are the log
-  std::size_t size_ = 0;
+  // Slots past size_ are raw storage (never read), so growing does not fill them.
+  [[gnu::noinline]] void grow() {
+    const std::size_t cap = std::max<std::size_t>(64, 2 * cap_);
+    H* data = std::allocator<H>().allocate(cap);
+    if (size_ > 0) std::memcpy(static_cast<void*>(data), data_, size_ * sizeof(H));
+    release();
+    data_ = data;
+    cap_ = cap;
+  }
+  void release() {
+    if (data_) std::allocator<H>().deallocate(data_, cap_);
+    data_ = nullptr;
+  }
+  H* data_ = nullptr;
+  std::size_t size_ = 0, cap_ = 0;
 };
 
 // Iterates over the live elements of one kind.
