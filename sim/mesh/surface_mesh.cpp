@@ -459,16 +459,24 @@ void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
 Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   check(v, "splitVertex");
   if (fan.empty()) return Vertex();
-  for (std::size_t i = 0; i < fan.size(); ++i) {
-    if (!isValid(fan[i]) || localIndex(fan[i], v) < 0) return Vertex();
-    for (std::size_t j = 0; j < i; ++j)
-      if (fan[i] == fan[j]) return Vertex();
+  // The fan's faces are marked (a fan can hold most of the ~50 faces of a groove's
+  // bottom vertex: no search of the fan per edge of v).
+  auto& mark = scratch_.fanMark;
+  if (mark.size() < facesSize()) mark.resize(std::max(facesSize(), 2 * mark.size()), 0);
+  if (++scratch_.fanStamp == 0) {  // wrapped
+    std::fill(mark.begin(), mark.end(), 0u);
+    scratch_.fanStamp = 1;
+  }
+  const std::uint32_t stamp = scratch_.fanStamp;
+  for (Face f : fan) {
+    if (!isValid(f) || localIndex(f, v) < 0 || mark[f.idx()] == stamp) return Vertex();
+    mark[f.idx()] = stamp;
   }
   // Each face around v has two sides at v.
   std::size_t sides = 0;
   for (Edge e : vedges_[v]) sides += (efaces_[e][0].isValid() ? 1u : 0u) + (efaces_[e][1].isValid() ? 1u : 0u);
   if (2 * fan.size() >= sides) return Vertex();
-  auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
+  auto inFan = [&](Face f) { return f.isValid() && mark[f.idx()] == stamp; };
 
   // The copy's edge list is built below (copying v's would be an allocation and a
   // copy wasted).

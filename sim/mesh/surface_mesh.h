@@ -466,6 +466,10 @@ class SurfaceMesh {
     std::vector<Face> sepAround;
     std::vector<int> sepGroup;
     std::vector<Face> sepFan;
+    // splitVertex's fan membership: per face index, the stamp of the call that listed
+    // it (grows with the mesh, cleared only when the stamp wraps).
+    std::vector<std::uint32_t> fanMark;
+    std::uint32_t fanStamp = 0;
   };
   Scratch scratch_;
 };
