@@ -152,26 +152,20 @@ void SurfaceMesh::removeFaceProperty(const std::string& name) {
   fprops_.remove(name);
 }
 
-void SurfaceMesh::check(Vertex v, const char* where) const {
-  if (!isValid(v)) {
-    std::ostringstream s;
-    s << where << ": " << v << " is not a live vertex";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Vertex v, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << v << " is not a live vertex";
+  throw InvalidHandleError(s.str());
 }
-void SurfaceMesh::check(Edge e, const char* where) const {
-  if (!isValid(e)) {
-    std::ostringstream s;
-    s << where << ": " << e << " is not a live edge";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Edge e, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << e << " is not a live edge";
+  throw InvalidHandleError(s.str());
 }
-void SurfaceMesh::check(Face f, const char* where) const {
-  if (!isValid(f)) {
-    std::ostringstream s;
-    s << where << ": " << f << " is not a live face";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Face f, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << f << " is not a live face";
+  throw InvalidHandleError(s.str());
 }
 
 // ---- low-level element creation --------------------------------------------

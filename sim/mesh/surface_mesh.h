@@ -399,9 +399,22 @@ class SurfaceMesh {
  private:
   void initBuiltins();
   void bindProperties();
-  void check(Vertex v, const char* where) const;
-  void check(Edge e, const char* where) const;
-  void check(Face f, const char* where) const;
+  // Inline tests, the throws out of line.
+  void check(Vertex v, const char* where) const {
+    if (!isValid(v)) [[unlikely]]
+      throwInvalid(v, where);
+  }
+  void check(Edge e, const char* where) const {
+    if (!isValid(e)) [[unlikely]]
+      throwInvalid(e, where);
+  }
+  void check(Face f, const char* where) const {
+    if (!isValid(f)) [[unlikely]]
+      throwInvalid(f, where);
+  }
+  [[noreturn]] static void throwInvalid(Vertex v, const char* where);
+  [[noreturn]] static void throwInvalid(Edge e, const char* where);
+  [[noreturn]] static void throwInvalid(Face f, const char* where);
   Edge newEdge(Vertex a, Vertex b);
   Face newFace();
   Edge newEdgeCopy(Edge from, Vertex a, Vertex b);
@@ -479,10 +492,14 @@ class SurfaceMesh {
 inline Edge SurfaceMesh::findEdge(Vertex a, Vertex b) const {
   const auto& ea = vedges_[a];
   const auto& eb = vedges_[b];
-  const auto& shorter = ea.size() <= eb.size() ? ea : eb;
+  // Every edge in a vertex's list has that vertex as an end (validate() checks it), so
+  // the two ends xor the vertex give the other end: one comparison per edge.
+  const bool fromA = ea.size() <= eb.size();
+  const auto& shorter = fromA ? ea : eb;
+  const Vertex::Index here = fromA ? a.idx() : b.idx(), there = fromA ? b.idx() : a.idx();
   for (Edge e : shorter) {
     const auto& ev = everts_[e];
-    if ((ev[0] == a && ev[1] == b) || (ev[0] == b && ev[1] == a)) return e;
+    if ((ev[0].idx() ^ ev[1].idx() ^ here) == there) return e;
   }
   return Edge();
 }
