@@ -6,6 +6,7 @@
 #include <cassert>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <typeinfo>
 #include <utility>
@@ -160,16 +161,16 @@ class PropertyContainer {
     return raw;
   }
   template <class T>
-  PropertyArray<T>* get(const std::string& name) const {
+  PropertyArray<T>* get(std::string_view name) const {
     BasePropertyArray* a = find(name);
     if (!a) return nullptr;
-    if (a->type() != typeid(T)) throw PropertyError("property '" + name + "' has another type");
+    if (a->type() != typeid(T)) throw PropertyError("property '" + std::string(name) + "' has another type");
     return static_cast<PropertyArray<T>*>(a);
   }
   void remove(const std::string& name) {
     std::erase_if(arrays_, [&](const auto& a) { return a->name() == name; });
   }
-  [[nodiscard]] bool exists(const std::string& name) const { return find(name) != nullptr; }
+  [[nodiscard]] bool exists(std::string_view name) const { return find(name) != nullptr; }
   [[nodiscard]] std::vector<std::string> names() const {
     std::vector<std::string> n;
     for (const auto& a : arrays_) n.push_back(a->name());
@@ -249,7 +250,8 @@ class PropertyContainer {
   void roomForOne() {
     if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
   }
-  BasePropertyArray* find(const std::string& name) const {
+  // By name, without making a string of it (the lookups take literals).
+  BasePropertyArray* find(std::string_view name) const {
     for (const auto& a : arrays_)
       if (a->name() == name) return a.get();
     return nullptr;

@@ -19,6 +19,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -358,39 +359,39 @@ class SurfaceMesh {
     return VertexProperty<T>(vprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  VertexProperty<T> getVertexProperty(const std::string& name) const {
+  VertexProperty<T> getVertexProperty(std::string_view name) const {
     return VertexProperty<T>(vprops_.get<T>(name));
   }
   template <class T>
-  VertexProperty<T> vertexProperty(const std::string& name, T def = T()) {
+  VertexProperty<T> vertexProperty(std::string_view name, T def = T()) {
     auto p = getVertexProperty<T>(name);
-    return p ? p : addVertexProperty<T>(name, std::move(def));
+    return p ? p : addVertexProperty<T>(std::string(name), std::move(def));
   }
   template <class T>
   EdgeProperty<T> addEdgeProperty(const std::string& name, T def = T()) {
     return EdgeProperty<T>(eprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  EdgeProperty<T> getEdgeProperty(const std::string& name) const {
+  EdgeProperty<T> getEdgeProperty(std::string_view name) const {
     return EdgeProperty<T>(eprops_.get<T>(name));
   }
   template <class T>
-  EdgeProperty<T> edgeProperty(const std::string& name, T def = T()) {
+  EdgeProperty<T> edgeProperty(std::string_view name, T def = T()) {
     auto p = getEdgeProperty<T>(name);
-    return p ? p : addEdgeProperty<T>(name, std::move(def));
+    return p ? p : addEdgeProperty<T>(std::string(name), std::move(def));
   }
   template <class T>
   FaceProperty<T> addFaceProperty(const std::string& name, T def = T()) {
     return FaceProperty<T>(fprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  FaceProperty<T> getFaceProperty(const std::string& name) const {
+  FaceProperty<T> getFaceProperty(std::string_view name) const {
     return FaceProperty<T>(fprops_.get<T>(name));
   }
   template <class T>
-  FaceProperty<T> faceProperty(const std::string& name, T def = T()) {
+  FaceProperty<T> faceProperty(std::string_view name, T def = T()) {
     auto p = getFaceProperty<T>(name);
-    return p ? p : addFaceProperty<T>(name, std::move(def));
+    return p ? p : addFaceProperty<T>(std::string(name), std::move(def));
   }
   void removeVertexProperty(const std::string& name);
   void removeEdgeProperty(const std::string& name);
