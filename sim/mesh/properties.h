@@ -6,6 +6,7 @@
 #include <cassert>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <typeinfo>
 #include <utility>
@@ -160,16 +161,16 @@ class PropertyContainer {
     return raw;
   }
   template <class T>
-  PropertyArray<T>* get(const std::string& name) const {
+  PropertyArray<T>* get(std::string_view name) const {
     BasePropertyArray* a = find(name);
     if (!a) return nullptr;
-    if (a->type() != typeid(T)) throw PropertyError("property '" + name + "' has another type");
+    if (a->type() != typeid(T)) throw PropertyError("property '" + std::string(name) + "' has another type");
     return static_cast<PropertyArray<T>*>(a);
   }
   void remove(const std::string& name) {
     std::erase_if(arrays_, [&](const auto& a) { return a->name() == name; });
   }
-  [[nodiscard]] bool exists(const std::string& name) const { return find(name) != nullptr; }
+  [[nodiscard]] bool exists(std::string_view name) const { return find(name) != nullptr; }
   [[nodiscard]] std::vector<std::string> names() const {
     std::vector<std::string> n;
     for (const auto& a : arrays_) n.push_back(a->name());
@@ -183,6 +184,30 @@ class PropertyContainer {
     for (auto& a : arrays_) a->pushBack();
     ++size_;
   }
+  // The same for an owner that knows the types of the first `typed` arrays (a mesh's
+  // built-ins, always added first): every array gets room first, then `push` appends
+  // exactly one element to each of those arrays itself (no virtual call, and their
+  // values at once rather than defaults), and the other arrays get their default.
+  template <class Push>
+  void pushBackTyped(std::size_t typed, Push&& push) {
+    assert(typed <= arrays_.size());
+    roomForOne();
+    push();
+    for (std::size_t i = typed; i < arrays_.size(); ++i) arrays_[i]->pushBack();
+    ++size_;
+  }
+  // As pushBackTyped, the other arrays getting a copy of element `from`.
+  template <class Push>
+  void pushBackCopyTyped(std::size_t typed, std::size_t from, Push&& push) {
+    assert(typed <= arrays_.size() && from < size_);
+    roomForOne();
+    push();
+    for (std::size_t i = typed; i < arrays_.size(); ++i) arrays_[i]->pushBackCopy(from);
+    ++size_;
+  }
+  // The i-th array in the order of add() (removals keep the others' order).
+  [[nodiscard]] const BasePropertyArray& array(std::size_t i) const { return *arrays_[i]; }
+  [[nodiscard]] std::size_t arrayCount() const { return arrays_.size(); }
   void resize(std::size_t n) {
     for (auto& a : arrays_) a->resize(n);
     size_ = n;
@@ -225,7 +250,8 @@ class PropertyContainer {
   void roomForOne() {
     if (size_ == capacity_) reserve(std::max<std::size_t>(16, 2 * capacity_));
   }
-  BasePropertyArray* find(const std::string& name) const {
+  // By name, without making a string of it (the lookups take literals).
+  BasePropertyArray* find(std::string_view name) const {
     for (const auto& a : arrays_)
       if (a->name() == name) return a.get();
     return nullptr;

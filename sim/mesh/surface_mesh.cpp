@@ -57,6 +57,15 @@ void SurfaceMesh::bindProperties() {
   fverts_ = getFaceProperty<std::array<Vertex, 3>>("f:vertices");
   fedges_ = getFaceProperty<std::array<Edge, 3>>("f:edges");
   fdeleted_ = getFaceProperty<std::uint8_t>("f:deleted");
+  // The edits append to the built-ins directly (PropertyContainer::pushBackTyped): they
+  // must be the first three arrays of their containers, as initBuiltins adds them.
+  auto firstAre = [](const PropertyContainer& c, const char* a, const char* b, const char* d) {
+    return c.arrayCount() >= 3 && c.array(0).name() == a && c.array(1).name() == b && c.array(2).name() == d;
+  };
+  if (!firstAre(vprops_, "v:point", "v:edges", "v:deleted") ||
+      !firstAre(eprops_, "e:vertices", "e:faces", "e:deleted") ||
+      !firstAre(fprops_, "f:vertices", "f:edges", "f:deleted"))
+    throw PropertyError("built-in properties out of place");
 }
 
 SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
@@ -143,82 +152,101 @@ void SurfaceMesh::removeFaceProperty(const std::string& name) {
   fprops_.remove(name);
 }
 
-void SurfaceMesh::check(Vertex v, const char* where) const {
-  if (!isValid(v)) {
-    std::ostringstream s;
-    s << where << ": " << v << " is not a live vertex";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Vertex v, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << v << " is not a live vertex";
+  throw InvalidHandleError(s.str());
 }
-void SurfaceMesh::check(Edge e, const char* where) const {
-  if (!isValid(e)) {
-    std::ostringstream s;
-    s << where << ": " << e << " is not a live edge";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Edge e, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << e << " is not a live edge";
+  throw InvalidHandleError(s.str());
 }
-void SurfaceMesh::check(Face f, const char* where) const {
-  if (!isValid(f)) {
-    std::ostringstream s;
-    s << where << ": " << f << " is not a live face";
-    throw InvalidHandleError(s.str());
-  }
+void SurfaceMesh::throwInvalid(Face f, const char* where) {
+  std::ostringstream s;
+  s << where << ": " << f << " is not a live face";
+  throw InvalidHandleError(s.str());
 }
 
 // ---- low-level element creation --------------------------------------------
 
+// The built-in arrays are appended to with their values (kBuiltins per kind, see
+// bindProperties), the attached properties get their defaults or copies.
+constexpr std::size_t kBuiltins = 3;
+
 Vertex SurfaceMesh::addVertex(const Point& p) {
-  vprops_.pushBack();
+  const Point at = p;  // p may be a position of this mesh
+  vprops_.pushBackTyped(kBuiltins, [&] {
+    points_.vector().push_back(at);
+    vedges_.vector().emplace_back();
+    vdeleted_.vector().push_back(0);
+  });
   Vertex v(verticesSize() - 1);
-  points_[v] = p;
-  journalV_.push_back(v);
+  record(journalV_, v);
   return v;
 }
 
 // A new vertex's edge list gets room for a usual valence at once, instead of
-// growing 1, 2, 4, 8 (one allocation instead of four).
-void SurfaceMesh::addEdgeToVertex(Vertex v, Edge e) {
-  auto& list = vedges_[v];
-  if (list.capacity() == 0) list.reserve(8);
-  list.push_back(e);
+// growing 1, 2, 4, 8 (one allocation instead of four). Out of line: the edits call
+// addEdgeToVertex (inline, in the header) many times per edit.
+void SurfaceMesh::growEdgeList(std::vector<Edge>& list) {
+  list.reserve(list.capacity() == 0 ? 8 : 2 * list.capacity());
 }
 
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
-  eprops_.pushBack();
+  eprops_.pushBackTyped(kBuiltins, [&] {
+    everts_.vector().push_back({a, b});
+    efaces_.vector().push_back({Face(), Face()});
+    edeleted_.vector().push_back(0);
+  });
   return linkNewEdge(a, b);
 }
 
 Face SurfaceMesh::newFace() {
-  fprops_.pushBack();
+  fprops_.pushBackTyped(kBuiltins, [&] {
+    fverts_.vector().emplace_back();
+    fedges_.vector().emplace_back();
+    fdeleted_.vector().push_back(0);
+  });
   return journalNewFace();
 }
 
-// A new edge (a, b) with the properties of `from` (one pass over the property arrays).
+// A new edge (a, b), without faces, with the attached properties of `from` (one pass
+// over the property arrays).
 Edge SurfaceMesh::newEdgeCopy(Edge from, Vertex a, Vertex b) {
-  eprops_.pushBackCopy(from.idx());
+  const std::uint8_t deleted = edeleted_[from];
+  eprops_.pushBackCopyTyped(kBuiltins, from.idx(), [&] {
+    everts_.vector().push_back({a, b});
+    efaces_.vector().push_back({Face(), Face()});
+    edeleted_.vector().push_back(deleted);
+  });
   return linkNewEdge(a, b);
 }
 
-// A new face with the properties of `from` (its corners and sides are set by attachFace).
+// A new face with the attached properties of `from` (its corners and sides are set by
+// attachFace).
 Face SurfaceMesh::newFaceCopy(Face from) {
-  fprops_.pushBackCopy(from.idx());
+  const std::uint8_t deleted = fdeleted_[from];
+  fprops_.pushBackCopyTyped(kBuiltins, from.idx(), [&] {
+    fverts_.vector().emplace_back();
+    fedges_.vector().emplace_back();
+    fdeleted_.vector().push_back(deleted);
+  });
   return journalNewFace();
 }
 
-// The last edge (just pushed) as (a, b), without faces, listed at both ends.
+// The last edge (just pushed as (a, b) without faces) listed at both ends.
 Edge SurfaceMesh::linkNewEdge(Vertex a, Vertex b) {
   const Edge e(edgesSize() - 1);
-  everts_[e] = {a, b};
-  efaces_[e] = {Face(), Face()};
   addEdgeToVertex(a, e);
   addEdgeToVertex(b, e);
-  journalE_.push_back(e);
+  record(journalE_, e);
   return e;
 }
 
 Face SurfaceMesh::journalNewFace() {
   const Face f(facesSize() - 1);
-  journalF_.push_back(f);
+  record(journalF_, f);
   return f;
 }
 
@@ -240,9 +268,9 @@ void SurfaceMesh::removeEdgeFromVertex(Vertex v, Edge e) {
 }
 
 void SurfaceMesh::detachFace(Face f) {
-  journalF_.push_back(f);
+  record(journalF_, f);
   for (Edge e : fedges_[f]) {
-    journalE_.push_back(e);
+    record(journalE_, e);
     auto& ef = efaces_[e];
     if (ef[0] == f) {
       ef[0] = ef[1];
@@ -255,7 +283,7 @@ void SurfaceMesh::detachFace(Face f) {
 
 void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Edge, 3> known, bool missingAreNew) {
   fverts_[f] = {a, b, c};
-  journalF_.push_back(f);
+  record(journalF_, f);
   const std::array<Vertex, 3> v{a, b, c};
   for (std::size_t i = 0; i < 3; ++i) {
     Vertex x = v[i], y = v[(i + 1) % 3];
@@ -267,7 +295,7 @@ void SurfaceMesh::attachFace(Face f, Vertex a, Vertex b, Vertex c, std::array<Ed
     else
       ef[1] = f;
     fedges_[f][i] = e;
-    journalE_.push_back(e);
+    record(journalE_, e);
   }
 }
 
@@ -277,7 +305,7 @@ void SurfaceMesh::deleteEmptyEdge(Edge e) {
   removeEdgeFromVertex(everts_[e][1], e);
   edeleted_[e] = 1;
   ++deletedEdges_;
-  journalE_.push_back(e);
+  record(journalE_, e);
 }
 
 // ---- edits ----------------------------------------------------------------------
@@ -324,7 +352,7 @@ void SurfaceMesh::deleteFace(Face f) {
   for (Edge e : fedges_[f]) deleteEmptyEdge(e);
   fdeleted_[f] = 1;
   ++deletedFaces_;
-  journalF_.push_back(f);
+  record(journalF_, f);
   ++topologyVersion_;
 }
 
@@ -335,7 +363,7 @@ void SurfaceMesh::deleteVertex(Vertex v) {
   for (Face f : around) deleteFace(f);
   vdeleted_[v] = 1;
   ++deletedVertices_;
-  journalV_.push_back(v);
+  record(journalV_, v);
   ++topologyVersion_;
 }
 
@@ -358,7 +386,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   removeEdgeFromVertex(b, e);
   everts_[e] = {a, m};
   addEdgeToVertex(m, e);
-  journalE_.push_back(e);
+  record(journalE_, e);
   const Edge e2 = newEdgeCopy(e, m, b);
   for (std::size_t k = 0; k < 2; ++k) {
     if (!fs[k].isValid()) continue;
@@ -425,26 +453,37 @@ void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
 Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   check(v, "splitVertex");
   if (fan.empty()) return Vertex();
-  for (std::size_t i = 0; i < fan.size(); ++i) {
-    if (!isValid(fan[i]) || localIndex(fan[i], v) < 0) return Vertex();
-    for (std::size_t j = 0; j < i; ++j)
-      if (fan[i] == fan[j]) return Vertex();
+  // The fan's faces are marked (a fan can hold most of the ~50 faces of a groove's
+  // bottom vertex: no search of the fan per edge of v).
+  auto& mark = scratch_.fanMark;
+  if (mark.size() < facesSize()) mark.resize(std::max(facesSize(), 2 * mark.size()), 0);
+  if (++scratch_.fanStamp == 0) {  // wrapped
+    std::fill(mark.begin(), mark.end(), 0u);
+    scratch_.fanStamp = 1;
+  }
+  const std::uint32_t stamp = scratch_.fanStamp;
+  for (Face f : fan) {
+    if (!isValid(f) || localIndex(f, v) < 0 || mark[f.idx()] == stamp) return Vertex();
+    mark[f.idx()] = stamp;
   }
   // Each face around v has two sides at v.
   std::size_t sides = 0;
   for (Edge e : vedges_[v]) sides += (efaces_[e][0].isValid() ? 1u : 0u) + (efaces_[e][1].isValid() ? 1u : 0u);
   if (2 * fan.size() >= sides) return Vertex();
-  auto inFan = [&](Face f) { return f.isValid() && std::find(fan.begin(), fan.end(), f) != fan.end(); };
+  auto inFan = [&](Face f) { return f.isValid() && mark[f.idx()] == stamp; };
 
-  // v's edge list is set aside while its properties are copied: the copy's list is
-  // built below, so copying v's list (an allocation and a copy) would be wasted.
-  std::vector<Edge> aside;
-  aside.swap(vedges_[v]);
-  vprops_.pushBackCopy(v.idx());
-  vedges_[v].swap(aside);
+  // The copy's edge list is built below (copying v's would be an allocation and a
+  // copy wasted).
+  const Point at = points_[v];
+  const std::uint8_t deleted = vdeleted_[v];
+  vprops_.pushBackCopyTyped(kBuiltins, v.idx(), [&] {
+    points_.vector().push_back(at);
+    vedges_.vector().emplace_back();
+    vdeleted_.vector().push_back(deleted);
+  });
   const Vertex nv(verticesSize() - 1);
-  journalV_.push_back(v);
-  journalV_.push_back(nv);
+  record(journalV_, v);
+  record(journalV_, nv);
 
   // (fan face, edge it leaves, the copy it takes instead)
   auto& swaps = scratch_.swaps;
@@ -461,14 +500,14 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
     if (in0 && (in1 || !f1.isValid())) {
       everts_[e] = ends;
       addEdgeToVertex(nv, e);
-      journalE_.push_back(e);
+      record(journalE_, e);
       continue;
     }
     list[keep++] = e;
     if (!in0 && !in1) continue;
     const Face moved = in0 ? f0 : f1;
     efaces_[e] = {in0 ? f1 : f0, Face()};
-    journalE_.push_back(e);
+    record(journalE_, e);
     const Edge c = newEdgeCopy(e, ends[0], ends[1]);  // journals c
     efaces_[c] = {moved, Face()};
     swaps.push_back({moved, e, c});
@@ -477,7 +516,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   for (Face f : fan) {
     for (auto& x : fverts_[f])
       if (x == v) x = nv;
-    journalF_.push_back(f);
+    record(journalF_, f);
   }
   for (const auto& s : swaps)
     for (auto& fe : fedges_[s.face])

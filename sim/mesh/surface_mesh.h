@@ -11,11 +11,16 @@
 // Edits state their preconditions; an edit that cannot be done returns an invalid
 // handle and leaves the mesh untouched. Misuse (a dead or foreign handle) throws
 // InvalidHandleError.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <memory>
 #include <span>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -88,6 +93,55 @@ struct BoundingBox {
   Point max = Point::Constant(0.0);
   [[nodiscard]] Point center() const { return 0.5 * (min + max); }
   [[nodiscard]] Point extent() const { return max - min; }
+};
+
+// An append-only list of handles (the edit journal): an append is a store and an
+// increment, the growth (geometric) out of line. Moving leaves the source empty.
+template <class H>
+class HandleLog {
+  static_assert(std::is_trivially_copyable_v<H> && std::is_trivially_destructible_v<H>);
+
+ public:
+  HandleLog() = default;
+  HandleLog(const HandleLog&) = delete;
+  HandleLog& operator=(const HandleLog&) = delete;
+  HandleLog(HandleLog&& o) noexcept
+      : data_(std::exchange(o.data_, nullptr)), size_(std::exchange(o.size_, 0)), cap_(std::exchange(o.cap_, 0)) {}
+  HandleLog& operator=(HandleLog&& o) noexcept {
+    if (this != &o) {
+      release();
+      data_ = std::exchange(o.data_, nullptr);
+      size_ = std::exchange(o.size_, 0);
+      cap_ = std::exchange(o.cap_, 0);
+    }
+    return *this;
+  }
+  ~HandleLog() { release(); }
+  void push(H h) {
+    if (size_ == cap_) [[unlikely]]
+      grow();
+    std::construct_at(data_ + size_, h);
+    ++size_;
+  }
+  void clear() { size_ = 0; }
+  [[nodiscard]] std::span<const H> view() const { return {data_, size_}; }
+
+ private:
+  // Slots past size_ are raw storage (never read), so growing does not fill them.
+  [[gnu::noinline]] void grow() {
+    const std::size_t cap = std::max<std::size_t>(64, 2 * cap_);
+    H* data = std::allocator<H>().allocate(cap);
+    if (size_ > 0) std::memcpy(static_cast<void*>(data), data_, size_ * sizeof(H));
+    release();
+    data_ = data;
+    cap_ = cap;
+  }
+  void release() {
+    if (data_) std::allocator<H>().deallocate(data_, cap_);
+    data_ = nullptr;
+  }
+  H* data_ = nullptr;
+  std::size_t size_ = 0, cap_ = 0;
 };
 
 // Iterates over the live elements of one kind.
@@ -163,9 +217,9 @@ class SurfaceMesh {
   // contents replaced) empties the journal: rebuild. Moving a mesh keeps it.
   // The journal grows by a few handles per edit until the next layout change.
   [[nodiscard]] std::uint64_t layoutVersion() const { return layoutVersion_; }
-  [[nodiscard]] std::span<const Vertex> editedVertices() const { return journalV_; }
-  [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_; }
-  [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_; }
+  [[nodiscard]] std::span<const Vertex> editedVertices() const { return journalV_.view(); }
+  [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_.view(); }
+  [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_.view(); }
 
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
 
@@ -305,39 +359,39 @@ class SurfaceMesh {
     return VertexProperty<T>(vprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  VertexProperty<T> getVertexProperty(const std::string& name) const {
+  VertexProperty<T> getVertexProperty(std::string_view name) const {
     return VertexProperty<T>(vprops_.get<T>(name));
   }
   template <class T>
-  VertexProperty<T> vertexProperty(const std::string& name, T def = T()) {
+  VertexProperty<T> vertexProperty(std::string_view name, T def = T()) {
     auto p = getVertexProperty<T>(name);
-    return p ? p : addVertexProperty<T>(name, std::move(def));
+    return p ? p : addVertexProperty<T>(std::string(name), std::move(def));
   }
   template <class T>
   EdgeProperty<T> addEdgeProperty(const std::string& name, T def = T()) {
     return EdgeProperty<T>(eprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  EdgeProperty<T> getEdgeProperty(const std::string& name) const {
+  EdgeProperty<T> getEdgeProperty(std::string_view name) const {
     return EdgeProperty<T>(eprops_.get<T>(name));
   }
   template <class T>
-  EdgeProperty<T> edgeProperty(const std::string& name, T def = T()) {
+  EdgeProperty<T> edgeProperty(std::string_view name, T def = T()) {
     auto p = getEdgeProperty<T>(name);
-    return p ? p : addEdgeProperty<T>(name, std::move(def));
+    return p ? p : addEdgeProperty<T>(std::string(name), std::move(def));
   }
   template <class T>
   FaceProperty<T> addFaceProperty(const std::string& name, T def = T()) {
     return FaceProperty<T>(fprops_.add<T>(name, std::move(def)));
   }
   template <class T>
-  FaceProperty<T> getFaceProperty(const std::string& name) const {
+  FaceProperty<T> getFaceProperty(std::string_view name) const {
     return FaceProperty<T>(fprops_.get<T>(name));
   }
   template <class T>
-  FaceProperty<T> faceProperty(const std::string& name, T def = T()) {
+  FaceProperty<T> faceProperty(std::string_view name, T def = T()) {
     auto p = getFaceProperty<T>(name);
-    return p ? p : addFaceProperty<T>(name, std::move(def));
+    return p ? p : addFaceProperty<T>(std::string(name), std::move(def));
   }
   void removeVertexProperty(const std::string& name);
   void removeEdgeProperty(const std::string& name);
@@ -346,16 +400,39 @@ class SurfaceMesh {
  private:
   void initBuiltins();
   void bindProperties();
-  void check(Vertex v, const char* where) const;
-  void check(Edge e, const char* where) const;
-  void check(Face f, const char* where) const;
+  // Inline tests, the throws out of line.
+  void check(Vertex v, const char* where) const {
+    if (!isValid(v)) [[unlikely]]
+      throwInvalid(v, where);
+  }
+  void check(Edge e, const char* where) const {
+    if (!isValid(e)) [[unlikely]]
+      throwInvalid(e, where);
+  }
+  void check(Face f, const char* where) const {
+    if (!isValid(f)) [[unlikely]]
+      throwInvalid(f, where);
+  }
+  [[noreturn]] static void throwInvalid(Vertex v, const char* where);
+  [[noreturn]] static void throwInvalid(Edge e, const char* where);
+  [[noreturn]] static void throwInvalid(Face f, const char* where);
   Edge newEdge(Vertex a, Vertex b);
   Face newFace();
   Edge newEdgeCopy(Edge from, Vertex a, Vertex b);
   Face newFaceCopy(Face from);
   Edge linkNewEdge(Vertex a, Vertex b);  // the tail of newEdge / newEdgeCopy
   Face journalNewFace();
-  void addEdgeToVertex(Vertex v, Edge e);
+  void addEdgeToVertex(Vertex v, Edge e) {
+    auto& list = vedges_[v];
+    if (list.size() == list.capacity()) [[unlikely]]
+      growEdgeList(list);
+    list.push_back(e);
+  }
+  [[gnu::noinline]] static void growEdgeList(std::vector<Edge>& list);
+  template <class H>
+  static void record(HandleLog<H>& journal, H h) {
+    journal.push(h);
+  }
   // Low-level helpers: remove a face from its edges' face lists (edges may be left
   // empty) and give it new vertices, finding or creating its edges (`known`: the
   // edges already found for (a,b), (b,c), (c,a), invalid where not looked up).
@@ -385,9 +462,9 @@ class SurfaceMesh {
   std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
   std::uint64_t topologyVersion_ = 0;
   std::uint64_t layoutVersion_;
-  std::vector<Vertex> journalV_;
-  std::vector<Edge> journalE_;
-  std::vector<Face> journalF_;
+  HandleLog<Vertex> journalV_;
+  HandleLog<Edge> journalE_;
+  HandleLog<Face> journalF_;
   void newLayout();
 
   // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
@@ -403,6 +480,10 @@ class SurfaceMesh {
     std::vector<Face> sepAround;
     std::vector<int> sepGroup;
     std::vector<Face> sepFan;
+    // splitVertex's fan membership: per face index, the stamp of the call that listed
+    // it (grows with the mesh, cleared only when the stamp wraps).
+    std::vector<std::uint32_t> fanMark;
+    std::uint32_t fanStamp = 0;
   };
   Scratch scratch_;
 };
@@ -412,10 +493,14 @@ class SurfaceMesh {
 inline Edge SurfaceMesh::findEdge(Vertex a, Vertex b) const {
   const auto& ea = vedges_[a];
   const auto& eb = vedges_[b];
-  const auto& shorter = ea.size() <= eb.size() ? ea : eb;
+  // Every edge in a vertex's list has that vertex as an end (validate() checks it), so
+  // the two ends xor the vertex give the other end: one comparison per edge.
+  const bool fromA = ea.size() <= eb.size();
+  const auto& shorter = fromA ? ea : eb;
+  const Vertex::Index here = fromA ? a.idx() : b.idx(), there = fromA ? b.idx() : a.idx();
   for (Edge e : shorter) {
     const auto& ev = everts_[e];
-    if ((ev[0] == a && ev[1] == b) || (ev[0] == b && ev[1] == a)) return e;
+    if ((ev[0].idx() ^ ev[1].idx() ^ here) == there) return e;
   }
   return Edge();
 }

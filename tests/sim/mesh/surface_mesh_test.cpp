@@ -197,7 +197,10 @@ TEST(SurfaceMesh, SplitVertexSeparatesAFanAndDuplicatesSharedEdges) {
   EXPECT_FALSE(m.splitVertex(centre, all).isValid());
   const std::vector<Face> foreign{m.faces(nv).front()};  // no longer around centre
   EXPECT_FALSE(m.splitVertex(centre, foreign).isValid());
+  const std::vector<Face> twice{all[0], all[0]};  // a face listed twice
+  EXPECT_FALSE(m.splitVertex(centre, twice).isValid());
   EXPECT_EQ(m.topologyVersion(), version);
+  EXPECT_VALID(m);
 }
 
 TEST(SurfaceMesh, SeparateEdgesCutsAStraightSlitAcrossAGrid) {
@@ -562,6 +565,53 @@ TEST(SurfaceMesh, PropertiesGrowTogether) {
   EXPECT_EQ(moved.size(), 5u);
   moved.pushBack();
   EXPECT_EQ(moved.get<double>("a")->vector().size(), 6u);
+}
+
+// The owner appends to the first arrays itself (typed, with their values); the others
+// get their default (pushBackTyped) or a copy of an element (pushBackCopyTyped).
+TEST(SurfaceMesh, TypedPushesFillTheOtherArrays) {
+  PropertyContainer c;
+  auto* own = c.add<int>("own", -1);
+  auto* other = c.add<double>("other", 0.25);
+  auto* list = c.add<std::vector<int>>("list", {});
+  c.pushBackTyped(1, [&] { own->vector().push_back(10); });
+  other->vector()[0] = 3.0;
+  list->vector()[0] = {1, 2};
+  c.pushBackCopyTyped(1, 0, [&] { own->vector().push_back(20); });
+  c.pushBackTyped(1, [&] { own->vector().push_back(30); });
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(own->vector(), (std::vector<int>{10, 20, 30}));
+  EXPECT_EQ(other->vector(), (std::vector<double>{3.0, 3.0, 0.25}));
+  EXPECT_EQ(list->vector()[1], (std::vector<int>{1, 2}));
+  EXPECT_TRUE(list->vector()[2].empty());
+  EXPECT_GE(other->vector().capacity(), c.capacity());
+  EXPECT_EQ(c.array(0).name(), "own");
+  EXPECT_EQ(c.arrayCount(), 3u);
+}
+
+// A mesh's edits append to its built-ins directly; attached properties of every kind
+// still get their defaults on new elements and copies on inheriting ones.
+TEST(SurfaceMesh, NewElementsGiveAttachedPropertiesDefaultsOrCopies) {
+  SurfaceMesh m = square();
+  auto vtag = m.addVertexProperty<int>("v:tag", 9);
+  auto etag = m.addEdgeProperty<int>("e:tag", 8);
+  auto ftag = m.addFaceProperty<int>("f:tag", 7);
+  for (Edge e : m.edges()) etag[e] = 1;
+  for (Face f : m.faces()) ftag[f] = 2;
+  const Vertex v = m.addVertex({2.0, 2.0, 0.0});
+  EXPECT_EQ(vtag[v], 9);
+  EXPECT_TRUE(m.position(v).isApprox(Point(2.0, 2.0, 0.0)));
+  EXPECT_TRUE(m.isIsolated(v));
+  const Face f = m.addFace(Vertex(2), v, Vertex(3));
+  ASSERT_TRUE(f.isValid());
+  EXPECT_EQ(ftag[f], 7);
+  EXPECT_EQ(etag[m.findEdge(Vertex(2), v)], 8);
+  const Vertex mid = m.splitEdge(m.findEdge(Vertex(0), Vertex(2)), {0.5, 0.5, 0.0});
+  EXPECT_EQ(vtag[mid], 9);
+  EXPECT_EQ(etag[m.findEdge(mid, Vertex(2))], 1);  // the half copies the split edge
+  EXPECT_EQ(etag[m.findEdge(mid, Vertex(1))], 8);  // a new spoke
+  for (Face g : m.faces(mid)) EXPECT_EQ(ftag[g], 2);
+  EXPECT_VALID(m);
 }
 
 // A copied mesh's vertex edge lists equal the original's (with room to grow).
