@@ -688,6 +688,16 @@ struct CutEngine::Impl {
     return made;
   }
 
+  // The edge of f at x other than e (f's two edges at x are the one leaving x and the
+  // one arriving at it); invalid when x is not a corner of f.
+  static Edge otherEdgeAt(const SurfaceMesh& m, Face f, Vertex x, Edge e) {
+    const int k = m.localIndex(f, x);
+    if (k < 0) return Edge();
+    const auto& fe = m.edges(f);
+    const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
+    return out == e ? in : out;
+  }
+
   // The faces around x form one fan (walk across the edges at x from one face, no
   // allocation): what the safety net checks around every edit.
   static bool singleFan(const SurfaceMesh& m, Vertex x) {
@@ -705,11 +715,8 @@ struct CutEngine::Impl {
       std::size_t count = 0;
       while (f.isValid() && count < es.size()) {
         ++count;
-        const int k = m.localIndex(f, x);
-        if (k < 0) break;
-        const auto& fe = m.edges(f);
-        const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
-        const Edge next = out == e ? in : out;
+        const Edge next = otherEdgeAt(m, f, x, e);
+        if (!next.isValid()) break;
         if (next == start) {
           if (count == es.size()) return true;
           break;
@@ -736,13 +743,8 @@ struct CutEngine::Impl {
     int count = 0;
     while (count <= total) {
       ++count;
-      // The two edges of f at x are the one leaving x and the one arriving at it.
-      const int k = m.localIndex(f, x);
-      if (k < 0) break;
-      const auto& fe = m.edges(f);
-      const Edge out = fe[static_cast<std::size_t>(k)], in = fe[static_cast<std::size_t>((k + 2) % 3)];
-      const Edge next = out == e ? in : out;
-      if (next == start) break;
+      const Edge next = otherEdgeAt(m, f, x, e);
+      if (!next.isValid() || next == start) break;
       const Face g = m.otherFace(next, f);
       if (!g.isValid()) break;
       e = next;
@@ -944,7 +946,7 @@ struct CutEngine::Impl {
         // Between the layers: halfway from N to o, or inside the wall triangle when N and
         // o are already joined by an edge (both tips on a side face the blade is leaving
         // along: halfway would sit on that edge and leave the cut-out loop no area).
-        Vec3 want = paired ? (m.findEdge(N, o).isValid() ? Vec3((pv + pN + po) / 3.0) : Vec3(0.5 * (pN + po))) : depthN;
+        Vec3 want = paired ? (joinedNO ? Vec3((pv + pN + po) / 3.0) : Vec3(0.5 * (pN + po))) : depthN;
         if (!paired && (depthN - pN).norm() < p.snapDistance) {
           // Keep the groove at least the snapping distance deep (no flat walls).
           const Vec3 n = rawNormal(m, m.face(eOut, 0)).normalized();
@@ -3062,15 +3064,7 @@ struct CutEngine::Impl {
         }
     }
     if (!m.isValid(f)) return at;
-    const Vec3 nf = rawNormal(m, f);
-    const Vec3 ab = s.b - s.a;
-    const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
-    const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
-    Vec3 q = s.a + u * ab;
-    const double reach = 8.0 * radius, d = (q - at).norm();
-    if (d > reach) q = at + (q - at) * (reach / d);
-    return q;
+    return meetsPlane(rawNormal(m, f), at, s, radius);
   }
   // The other way round: where the previous edge met the plane of the face holding a
   // new crossing (a track's crossing that went over an edge of the object onto a face
@@ -3078,14 +3072,18 @@ struct CutEngine::Impl {
   Vec3 crossingBehind(const Hit& h, const instruments::Segment& prev, double radius) {
     const SurfaceMesh& m = meshOf(h.object);
     if (!m.isValid(h.face)) return h.point;
-    const Vec3 nf = rawNormal(m, h.face);
-    const Vec3 ab = prev.b - prev.a;
+    return meetsPlane(rawNormal(m, h.face), h.point, prev, radius);
+  }
+  // Where segment s meets the plane with normal nf through `at` (clamped to s), at most
+  // 8 × radius from `at`; `at` itself when s runs along the plane.
+  static Vec3 meetsPlane(const Vec3& nf, const Vec3& at, const instruments::Segment& s, double radius) {
+    const Vec3 ab = s.b - s.a;
     const double den = nf.dot(ab);
-    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return h.point;
-    const double u = std::clamp(nf.dot(h.point - prev.a) / den, 0.0, 1.0);
-    Vec3 q = prev.a + u * ab;
-    const double reach = 8.0 * radius, d = (q - h.point).norm();
-    if (d > reach) q = h.point + (q - h.point) * (reach / d);
+    if (!(std::abs(den) > 1e-12 * nf.norm() * ab.norm())) return at;
+    const double u = std::clamp(nf.dot(at - s.a) / den, 0.0, 1.0);
+    Vec3 q = s.a + u * ab;
+    const double reach = 8.0 * radius, d = (q - at).norm();
+    if (d > reach) q = at + (q - at) * (reach / d);
     return q;
   }
   static double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
