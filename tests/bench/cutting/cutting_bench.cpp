@@ -100,7 +100,7 @@ void cutStrokes(ld::cutting::CutEngine& e, int strokes, double tipZ) {
 }
 
 // Counters (per run, the last iteration's):
-//   remesh_us_per_cut_triangle  CutStats::remeshSeconds / trianglesCut: thread CPU time
+//   remesh_us_per_cut_triangle  CutStats::remeshSeconds / trianglesCut: monotonic time
 //                               in the edits of samples that walked or edited the mesh
 //                               (collision queries and separation excluded);
 //   stroke_us_per_cut_triangle  thread CPU time of the whole strokes (everything: queries,
