@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -96,9 +97,14 @@ FlushDenormals::~FlushDenormals() {
 
 namespace detail {
 
-// Runs one job at a time on its own thread. The handoff spins briefly (a step is
-// shorter than a wake-up from sleep) and then sleeps on the atomic, so an idle
-// worker costs nothing.
+// Runs one job at a time on its own thread. Both sides spin (with a pause) before
+// they sleep on the atomic: on this project's VMs a system call costs ~1.3 µs with a
+// TLB flush and waking a sleeping thread tens of µs, while a step takes a few hundred,
+// so a hand-off should not sleep. The helper spins kIdleSpin after a job (long enough
+// to span the end of a step and the start of the next one), the caller up to
+// kFinishSpin for the helper's last chunk; an idle worker then sleeps and costs
+// nothing. libstdc++'s own wait adds sched_yield calls before it sleeps; it is only
+// reached after the spin.
 class Worker {
  public:
   Worker() : thread_([this] { loop(); }) {}
@@ -117,6 +123,8 @@ class Worker {
     const std::uint32_t e = go_.load(std::memory_order_relaxed) + 1;
     gate_.store(gate(e, kOpen), std::memory_order_release);
     go_.fetch_add(1, std::memory_order_release);
+    // A system call only when the helper has gone to sleep (libstdc++ checks for
+    // waiters first).
     go_.notify_one();
   }
   // For a job the caller can finish alone (the two-thread step's chunks): true when
@@ -129,19 +137,36 @@ class Worker {
   }
   void wait() {
     const std::uint32_t target = go_.load(std::memory_order_relaxed);
-    for (int i = 0; i < 20000; ++i)
-      if (done_.load(std::memory_order_acquire) == target) return;
+    if (spinUntil(kFinishSpin, [&] { return done_.load(std::memory_order_acquire) == target; })) return;
     for (std::uint32_t d = done_.load(std::memory_order_acquire); d != target;
          d = done_.load(std::memory_order_acquire))
       done_.wait(d);
   }
 
  private:
+  static constexpr std::chrono::microseconds kIdleSpin{200}, kFinishSpin{500};
+  static void pause() {
+#ifdef LD_HAVE_MXCSR
+    _mm_pause();
+#endif
+  }
+  // Spins until ready() or for about `budget` (the clock read every 64 tries).
+  template <class Ready>
+  static bool spinUntil(std::chrono::microseconds budget, Ready&& ready) {
+    const auto end = std::chrono::steady_clock::now() + budget;
+    for (;;) {
+      for (int i = 0; i < 64; ++i) {
+        if (ready()) return true;
+        pause();
+      }
+      if (std::chrono::steady_clock::now() > end) return ready();
+    }
+  }
   void loop() {
     std::uint32_t seen = 0;
     for (;;) {
       std::uint32_t g = go_.load(std::memory_order_acquire);
-      for (int i = 0; i < 20000 && g == seen; ++i) g = go_.load(std::memory_order_acquire);
+      if (g == seen) spinUntil(kIdleSpin, [&] { return (g = go_.load(std::memory_order_acquire)) != seen; });
       while (g == seen) {
         go_.wait(seen);
         g = go_.load(std::memory_order_acquire);
@@ -155,7 +180,7 @@ class Worker {
         fn_(ctx_);
       }
       done_.store(seen, std::memory_order_release);
-      done_.notify_one();
+      done_.notify_one();  // a system call only when the caller sleeps
     }
   }
   // gate_: the job of start number e is open, taken by the worker, or taken back by
@@ -166,7 +191,9 @@ class Worker {
   void (*fn_)(void*) = nullptr;
   void* ctx_ = nullptr;
   std::atomic<std::uint64_t> gate_{0};
-  std::atomic<std::uint32_t> go_{0}, done_{0};
+  // On their own cache lines: the helper spins on go_, the caller on done_.
+  alignas(64) std::atomic<std::uint32_t> go_{0};
+  alignas(64) std::atomic<std::uint32_t> done_{0};
   std::atomic<bool> quit_{false};
   std::thread thread_;
 };
@@ -513,9 +540,23 @@ void zeroMasslessVelocities(const Cache& c, mesh::SurfaceMesh& m) {
     if (c.invMass[i] == 0.0) v[i].setZero();
 }
 
-// The cache of a step's dynamics, refreshed for this mesh.
+// The symplectic step's AVX-512 path loads every far end as 4 doubles (x, y, z and
+// one it drops), so at the last vertex it reads one double past the positions: every
+// array it reads positions from keeps one more vertex allocated (and zeroed, so that no
+// tool sees an uninitialised read). Costs one reallocation after a copy or a growth
+// that filled the capacity, and an O(1) write a step.
+void padPositions(std::vector<Vec3>& x) {
+  if (x.capacity() == x.size()) x.reserve(x.size() + 1);
+  x.emplace_back(Vec3::Zero());
+  x.pop_back();
+}
+
+// The cache of a step's dynamics, refreshed for this mesh; the step's position arrays
+// (the mesh's and the one swapped with it each step) padded.
 void prepare(Dynamics& d, mesh::SurfaceMesh& m) {
   if (ensureCache(d, m)) zeroMasslessVelocities(d.cache, m);
+  padPositions(m.positions());
+  padPositions(d.cache.xb);
 }
 
 View makeView(const Params& p, const Dynamics& s, const mesh::SurfaceMesh& m) {
@@ -1115,6 +1156,7 @@ bool attemptSubsteps(Method m, const Params& p, const View& w, Dynamics& s, mesh
   Cache& c = s.cache;
   const double h = dt / substeps;
   std::vector<Vec3> xs(mesh.positions()), vs(velocities(mesh));  // start copy; retries are rare
+  padPositions(xs);  // the step reads positions from it (assignments below keep the capacity)
   double b = *budget;
   for (int k = 0; k < substeps; ++k) {
     const Outcome out = advance(m, p, p.stability, w, c, xs.data(), vs.data(), c.xb.data(), c.vb.data(), h, b);

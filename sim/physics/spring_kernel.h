@@ -106,6 +106,8 @@ inline constexpr std::size_t kGroup = 16;
 // (the data no longer sits in L2/L3; below, the prefetches cost more than they save).
 inline constexpr std::size_t kPrefetchFrom = 16384;
 struct BlockStep {
+  // x0 must have one more double readable past its last vertex (3n + 1): the AVX-512
+  // path loads each far end as 4 doubles.
   const double *x0 = nullptr, *v0 = nullptr, *home = nullptr, *ext = nullptr;
   const double* mass = nullptr;       // one per vertex (1/mass is derived: one stream fewer)
   const double* stiffness = nullptr;  // one per vertex: Σ k of its springs

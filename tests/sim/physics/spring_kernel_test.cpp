@@ -516,5 +516,55 @@ TEST(SpringKernel, ZeroLengthSpringsAddNothingWithEitherFactor) {
   }
 }
 
+// The AVX-512 step loads each far end as 4 doubles (x, y, z and one it drops), so at
+// the last vertex it reads one double past the positions: the step keeps one more
+// vertex allocated in every position array it reads (padPositions). Here the mesh's
+// positions and the step's other buffer start exactly sized (as after a copy): the step
+// must pad them (checked through the capacity, which is what the loads rely on), and
+// the motion must be the same as from padded arrays. Under AddressSanitizer
+// (LD_SANITIZE) an unpadded array is a heap-buffer-overflow at the last vertex.
+TEST(SpringKernel, StepReadsNoPositionPastTheArrays) {
+  for (Kernel k : compiledKernels()) {
+    SCOPED_TRACE(std::string(detail::kernelName(k)));
+    ForcedKernel fk(k);
+    for (int threads : {1, 2}) {
+      for (bool monitor : {false, true}) {
+        SCOPED_TRACE("threads " + std::to_string(threads) + (monitor ? " monitored" : ""));
+        Params p;
+        p.threads = threads;
+        p.stability.enabled = monitor;
+        State a, b;
+        editedScene(p, a);
+        editedScene(p, b);
+        for (State* s : {&a, &b}) {
+          auto& x = s->mesh.positions();
+          std::vector<Vec3> tight(x.begin(), x.end());
+          x.swap(tight);
+          s->cache.xb.shrink_to_fit();
+        }
+        ASSERT_EQ(a.mesh.positions().capacity(), a.mesh.positions().size());
+        for (int i = 0; i < 3; ++i) {
+          if (monitor)
+            step(p, a, 1e-4);
+          else
+            rawStep(p, a, Method::SymplecticEuler, 1e-4);
+          EXPECT_GT(a.mesh.positions().capacity(), a.mesh.positions().size());
+          EXPECT_GT(a.cache.xb.capacity(), a.cache.xb.size());
+        }
+        // The same steps from arrays that were padded before the first one.
+        b.mesh.positions().reserve(b.mesh.positions().size() + 8);
+        for (int i = 0; i < 3; ++i) {
+          if (monitor)
+            step(p, b, 1e-4);
+          else
+            rawStep(p, b, Method::SymplecticEuler, 1e-4);
+        }
+        EXPECT_EQ(a.mesh.positions(), b.mesh.positions());
+        EXPECT_EQ(velocities(a), velocities(b));
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ld::physics
