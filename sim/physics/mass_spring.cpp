@@ -350,10 +350,16 @@ void buildBlocks(Cache& c, std::size_t n) {
       const std::size_t i = G * g + c.slotVertex[G * g + slot];
       if (i >= n) continue;
       const std::size_t blk = 2 * g + slot / L, lane = slot % L;
+      // A padding lane's far end is its own vertex: l = 0, so the AVX-512 step without
+      // the monitor's sums needs no k ≠ 0 test (one operation a rank fewer). Lanes
+      // past n (no vertex) keep the group's first vertex; their results are not stored.
+      for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
+        c.rankX[L * r + lane] = static_cast<std::uint32_t>(3 * i);
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
         const std::uint32_t q = adjSlot[a];
         const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
-        c.rankX[at] = 3 * (atUpper[a] ? c.lower[q] : c.other[q]);
+        // (a spring with k = 0 adds nothing: its lane points at its own vertex too)
+        c.rankX[at] = 3 * static_cast<std::uint32_t>(c.k[q] == 0.0 ? i : atUpper[a] ? c.lower[q] : c.other[q]);
         c.rankK[at] = c.k[q];
         if (!K) c.rankRest[at] = c.rest[q];
         c.halfSlot[2 * q + atUpper[a]] = static_cast<std::uint32_t>(at);
@@ -455,6 +461,15 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
   c.mass.resize(n, 0.0);
   c.vertexStiffness.resize(n, 0.0);
   c.nVertexSlots = n;
+  // New vertices in the slots of the last group with ranks (past n at the rebuild):
+  // their padding lanes now point at themselves, as buildBlocks does for every vertex
+  // (the AVX-512 step without the monitor's sums relies on it: see there).
+  for (std::size_t i = n0; i < std::min(n, detail::kGroup * c.extraGroup.size()); ++i) {
+    const std::size_t g = i / detail::kGroup, slot = c.vertexSlot[i];
+    const std::size_t blk = 2 * g + slot / detail::kLanes, lane = slot % detail::kLanes;
+    for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
+      c.rankX[detail::kLanes * r + lane] = static_cast<std::uint32_t>(3 * i);
+  }
   // New groups of vertices: no ranks, lanes in vertex order.
   const std::size_t ng = (n + detail::kGroup - 1) / detail::kGroup;
   for (std::size_t g = c.extraGroup.size(); g < ng; ++g)
@@ -480,6 +495,7 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
       c.k[slot] = c.rest[slot] = 0.0;
       for (int end = 0; end < 2; ++end) {
         c.rankK[c.halfSlot[2 * slot + end]] = 0.0;
+        c.rankX[c.halfSlot[2 * slot + end]] = 3 * (end ? sp.j : sp.i);  // its own vertex, as padding
         if (c.laneLayout == detail::LaneLayout::PerSpring) c.rankRest[c.halfSlot[2 * slot + end]] = 0.0;
       }
     }

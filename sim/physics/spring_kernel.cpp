@@ -489,7 +489,11 @@ template <bool Energy, bool Rsqrt = false>
 LD_AVX512 inline __m512d sharedWeights8(const __m512d* d, __m512d k, __m512d sharedK, __m512d twoK, __m512d& pe) {
   const __m512d l2 = _mm512_fmadd_pd(d[2], d[2], _mm512_fmadd_pd(d[1], d[1], _mm512_mul_pd(d[0], d[0])));
   const __m512d zero = _mm512_setzero_pd();
-  const __mmask8 on = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ), l2, zero, _CMP_GT_OQ);
+  // Padding lanes and dead springs point at the lane's own vertex (l = 0), so l > 0
+  // alone masks them (lanes past n, which point elsewhere, are never stored); the
+  // energy needs k ≠ 0 too (those lanes' −2K·l would count).
+  const __mmask8 pos = _mm512_cmp_pd_mask(l2, zero, _CMP_GT_OQ);
+  const __mmask8 on = Energy ? __mmask8(pos & _mm512_cmp_pd_mask(k, zero, _CMP_NEQ_UQ)) : pos;
   if constexpr (Rsqrt) {
     const __m512d y = invSqrt8<kNewtonAvx512>(l2);
     // k·l² − 2K·l = l²·(k − 2K/l): two operations (0 where k = 0 or l = 0).

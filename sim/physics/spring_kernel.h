@@ -81,16 +81,13 @@ double springForces(Kernel kern, const SpringChunk& c);
 // would. Block b (2 a group) holds ranks [rankStart[b], rankStart[b+1]); rank r has,
 // for every lane, the far end (rankX = 3·j, the offset of x_j), k and rest of that
 // lane's vertex's r-th neighbour (by index: the order the lower-vertex scatter summed
-// in), padded with k = rest = 0 and the group's first vertex. Each vertex sums its own
-// springs (each spring is evaluated at both ends: no scatter, no shared writes; any
-// split into group ranges gives the same bits), adds f4 (4 doubles a vertex, set by the
-// springs added since the last rebuild) on groups flagged in `extra` (and zeroes it),
-// and integrates (each spring's force factor w below):
-// v1 = live·((1 − dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)),
-// x1 = x0 + dt·v1, im = 1/mass (0 where mass ≤ 0, as the cache's invMass),
-// live = (im ≠ 0). All arrays are whole (indexed by vertex);
-// positions and velocities 3 doubles a vertex.
-// Two lane layouts:
+// in), padded with k = rest = 0 and the lane's own vertex (dead springs too; lanes past n: the group's first vertex).
+// Each vertex sums its own springs (each spring is evaluated at both ends: no scatter, no shared writes; any split into
+// group ranges gives the same bits), adds f4 (4 doubles a vertex, set by the springs added since the last rebuild) on
+// groups flagged in `extra` (and zeroes it), and integrates (each spring's force factor w below): v1 = live·((1 −
+// dt·c)·v0 + dt·(im·(f + ext − homeK·(x0 − home)) + g)), x1 = x0 + dt·v1, im = 1/mass (0 where mass ≤ 0, as the cache's
+// invMass), live = (im ≠ 0). All arrays are whole (indexed by vertex); positions and velocities 3 doubles a vertex. Two
+// lane layouts:
 //  - per spring (rankRest set, 20 bytes a lane: far end, k, rest):
 //    w = k(l − rest)/l, padding k = rest = 0;
 //  - shared K (rankRest null, 12 bytes a lane: far end, k). Every spring's rest is
