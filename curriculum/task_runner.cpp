@@ -74,6 +74,52 @@ std::optional<Eigen::Vector3d> touchAt(const cutting::CutEngine& engine, Tool to
   return best;
 }
 
+// The tissue at rest (the model as loaded, balanced: where the path was drawn and
+// the trajectories were authored), for a tissue that moves under the blade: the cut
+// path is where the blade cut the tissue, i.e. the cut point carried back to the
+// tissue at rest, as a surgeon judges a cut against the line drawn on the tissue
+// whatever the tissue did meanwhile. A point of a face descends from its original
+// triangle (kOriginFaceProp); the cutter interpolates the homes of the vertices it
+// adds in the triangle they split, so the point's home (the same weights of its
+// face's homes) lies in the original triangle's home triangle, and the weights there
+// give the point on the original triangle at rest.
+class RestFrame {
+ public:
+  explicit RestFrame(const mesh::SurfaceMesh& start) : rest_(start) {}
+
+  // Where p, on face f of a descendant of the start mesh, is at rest; none for a face
+  // without an original triangle (the cut's walls).
+  [[nodiscard]] std::optional<Eigen::Vector3d> at(const mesh::SurfaceMesh& m, mesh::Face f,
+                                                  const Eigen::Vector3d& p) const {
+    const mesh::Face o = original(m, f);
+    if (!o.isValid()) return std::nullopt;
+    const auto home = m.getVertexProperty<Eigen::Vector3d>(physics::kHomeProp);
+    const auto home0 = rest_.getVertexProperty<Eigen::Vector3d>(physics::kHomeProp);
+    if (!home || !home0) return std::nullopt;
+    const auto& v = m.vertices(f);
+    const Eigen::Vector3d b = closestBarycentric(p, m.position(v[0]), m.position(v[1]), m.position(v[2]));
+    const Eigen::Vector3d h = b[0] * home[v[0]] + b[1] * home[v[1]] + b[2] * home[v[2]];
+    const auto& w = rest_.vertices(o);
+    const Eigen::Vector3d c = closestBarycentric(h, home0[w[0]], home0[w[1]], home0[w[2]]);
+    return Eigen::Vector3d(c[0] * rest_.position(w[0]) + c[1] * rest_.position(w[1]) + c[2] * rest_.position(w[2]));
+  }
+  // The normal at rest of f's original triangle (zero without one).
+  [[nodiscard]] Eigen::Vector3d normal(const mesh::SurfaceMesh& m, mesh::Face f) const {
+    const mesh::Face o = original(m, f);
+    return o.isValid() ? Eigen::Vector3d(rest_.faceNormal(o)) : Eigen::Vector3d::Zero();
+  }
+
+ private:
+  [[nodiscard]] mesh::Face original(const mesh::SurfaceMesh& m, mesh::Face f) const {
+    const auto tag = m.getFaceProperty<std::int64_t>(kOriginFaceProp);
+    if (!tag || !m.isValid(f) || tag[f] < 0) return {};
+    const mesh::Face o(static_cast<std::size_t>(tag[f]));
+    return rest_.isValid(o) ? o : mesh::Face();
+  }
+
+  mesh::SurfaceMesh rest_;
+};
+
 struct HandState {
   bool have = false;
   devices::PoseSample last;
@@ -397,6 +443,9 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
       r.physics.startResidualMn = physics::settle(pp, d, start).residual;
     }
   }
+  // A tissue moving under the blade: the cut is recorded on the tissue at rest.
+  std::optional<RestFrame> rest;
+  if (opt.physics && !opt.holdUnderBlade) rest.emplace(start);
   cutting::CutEngine engine(cutParams);
   const int obj = engine.addObject(std::move(start));
   TissueMotion motion(engine, tp, opt);
@@ -411,6 +460,8 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   CutPathRecorder recorder;
   std::size_t fed = 0;
   std::optional<Eigen::Vector3d> lastRaw;  // previous cut point of the stroke (for path crossings)
+  std::optional<Eigen::Vector3d> lastOff;  // the stroke's last cut point off the drawn path
+  bool lastOnPath = false;                 // lastRaw is on the drawn path
   int lastObject = -1;
   mesh::Face hint;     // face of the previous cut point (local search)
   mesh::Face surface;  // the last surface (not wall) face the cut point was on
@@ -433,23 +484,37 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     feedCut(t);
     live.endCutPiece();
     lastRaw.reset();
+    lastOff.reset();
+    lastOnPath = false;
   };
   // The cut points the engine reports for this hand's sample: the cut path follows
   // the one nearest the working point (a hook descending through the surface also
   // slices with its other edge, ahead of the elbow: that is not where it works);
   // a stop when none is left.
-  auto recordCut = [&](double t, const std::vector<cutting::CutPoint>& cps, const Eigen::Vector3d& ref) {
+  //
+  // On a tissue moving under the blade, the blade's crossing is not always where it
+  // cuts: behind a tip the pre-stretched cut ran ahead of (the track waits), on a lip
+  // of the opening, or in the gap, at places that shift as the tissue rings. There
+  // the cut path follows the cut the blade made in the tissue: the track's tip (its
+  // last permanent vertex), carried to the tissue at rest. On a still tissue the
+  // blade's point is the cut's pending point and stays the cut path.
+  auto recordCut = [&](double t, const cutting::StepResult& step, const Eigen::Vector3d& ref) {
+    const std::vector<cutting::CutPoint>& cps = step.cutPoints;
     if (cps.empty()) {
       if (lastRaw) endCut(t);
       return;
     }
-    const cutting::CutPoint* cp = &cps.front();
-    for (const auto& c : cps)
-      if ((c.point - ref).squaredNorm() < (cp->point - ref).squaredNorm()) cp = &c;
+    std::size_t ci = 0;
+    for (std::size_t i = 1; i < cps.size(); ++i)
+      if ((cps[i].point - ref).squaredNorm() < (cps[ci].point - ref).squaredNorm()) ci = i;
+    const cutting::CutPoint* cp = &cps[ci];
+    // The engine reports one preview segment per cut point, in the same order.
+    const bool tip = rest && step.preview.size() == cps.size();
+    const Eigen::Vector3d src = tip ? step.preview[ci].from : cp->point;
     const mesh::SurfaceMesh& cm = engine.object(cp->object).mesh;
     double d = 0.0;
-    SurfaceLocation loc = closestLocationNear(cm, cp->object == lastObject ? hint : mesh::Face(), cp->point, 2, &d);
-    if (d > 1e-3) loc = closestLocation(cm, cp->point, &d);
+    SurfaceLocation loc = closestLocationNear(cm, cp->object == lastObject ? hint : mesh::Face(), src, 2, &d);
+    if (d > 1e-3) loc = closestLocation(cm, src, &d);
     if (!cm.isValid(loc.face)) return;
     hint = loc.face;
     if (cp->object != lastObject) surface = mesh::Face();
@@ -460,13 +525,32 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     const auto kind = cm.getFaceProperty<int>(cutting::kFaceKindProp);
     if (!kind || kind[loc.face] == cutting::kSurface) surface = loc.face;
     const mesh::Face onSurface = cm.isValid(surface) ? surface : loc.face;
-    recorder.contact(cm, onSurface, cp->point);
+    Eigen::Vector3d point = src, normal = cm.faceNormal(onSurface);
+    if (rest) {
+      // On the tissue at rest, on the surface it was cutting (a point on a groove wall
+      // goes to its nearest point there, at the lip: a wall's vertices are copies of
+      // the lip's with their homes offset, which the original triangle does not hold).
+      std::optional<Eigen::Vector3d> q = rest->at(cm, onSurface, src);
+      if (!q) return;  // neither descends from the model (cannot happen on a tagged mesh)
+      point = *q;
+      normal = rest->normal(cm, onSurface);
+    }
+    recorder.contact(cm, onSurface, point);
     feedCut(t);
-    if (lastRaw && cp->object == obj) {
-      const int n = drawn.cutAcross(tissue(), *lastRaw, cp->point, cm.faceNormal(onSurface));
+    // A cut point on the drawn path (the cut snaps to the mesh's vertices and edges,
+    // and a path may run along them) touches it: whether the cut crossed is decided
+    // when it leaves, from the last point it had off the path (touching and going back
+    // is no crossing; the half-open segment test alone would count leaving the path).
+    const bool onPath = cp->object == obj && (rest ? drawn.distanceAtRest(point) : drawn.distance(tissue(), point)) <=
+                                                 1e-9 * (1.0 + point.cwiseAbs().maxCoeff());
+    if (lastRaw && cp->object == obj && !onPath && (!lastOnPath || lastOff)) {
+      const Eigen::Vector3d& from = lastOnPath ? *lastOff : *lastRaw;
+      const int n = rest ? drawn.cutAcrossAtRest(from, point, normal) : drawn.cutAcross(tissue(), from, point, normal);
       for (int k = 0; k < n; ++k) live.addPathCrossing(t);
     }
-    lastRaw = cp->point;
+    if (!onPath) lastOff = point;
+    lastOnPath = onPath;
+    lastRaw = point;
   };
 
   if (!tr.samples.empty()) live.start(tr.samples.front().t);
@@ -557,7 +641,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     } else {
       live.addContact({s.t, false, Eigen::Vector3d::Zero()});
     }
-    recordCut(s.t, step.cutPoints, ref);
+    recordCut(s.t, step, ref);
     hs.contact = now;
     hs.last = s;
     hs.have = true;

@@ -128,6 +128,7 @@ TissuePath TissuePath::embed(const SurfaceMesh& m, const Polyline& world, double
     tp.pts_.push_back({loc, world[i].stop || i + 1 == world.size(), false});
   }
   tp.startTracking(m);
+  tp.rest_ = tp.world_;
   return tp;
 }
 
@@ -367,15 +368,16 @@ bool segmentsCross(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eig
   return ((a + t * (b - a)) - (c + w * (d - c))).norm() <= maxGap;
 }
 
-int TissuePath::cutAcross(const SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                          const Eigen::Vector3d& n, double maxGap) {
+template <class At>
+int TissuePath::cutAcrossWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                              const Eigen::Vector3d& n, double maxGap) {
   if ((b - a).squaredNorm() <= 0) return 0;
   int count = 0;
   const Eigen::Vector3d lo = a.cwiseMin(b).array() - maxGap, hi = a.cwiseMax(b).array() + maxGap;
   Eigen::Vector3d prev;
   for (std::size_t i = 0; i + 1 < pts_.size(); ++i) {
-    const Eigen::Vector3d c = i == 0 ? pointAt(m, 0) : prev;
-    const Eigen::Vector3d d = pointAt(m, i + 1);
+    const Eigen::Vector3d c = i == 0 ? at(0) : prev;
+    const Eigen::Vector3d d = at(i + 1);
     prev = d;
     if (pts_[i].stop || pts_[i].freed || pts_[i + 1].freed) continue;
     if ((c.cwiseMax(d).array() < lo.array()).any() || (c.cwiseMin(d).array() > hi.array()).any()) continue;
@@ -385,6 +387,37 @@ int TissuePath::cutAcross(const SurfaceMesh& m, const Eigen::Vector3d& a, const 
     }
   }
   return count;
+}
+
+int TissuePath::cutAcross(const SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                          const Eigen::Vector3d& n, double maxGap) {
+  return cutAcrossWith([&](std::size_t i) { return pointAt(m, i); }, a, b, n, maxGap);
+}
+
+int TissuePath::cutAcrossAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
+                                double maxGap) {
+  return cutAcrossWith([&](std::size_t i) -> const Eigen::Vector3d& { return rest_[i]; }, a, b, n, maxGap);
+}
+
+template <class At>
+double TissuePath::distanceWith(const At& at, const Eigen::Vector3d& p) const {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < pts_.size(); ++i) {
+    if (pts_[i].stop || pts_[i].freed || pts_[i + 1].freed) continue;
+    const Eigen::Vector3d c = at(i), d = at(i + 1), cd = d - c;
+    const double len2 = cd.squaredNorm();
+    const double u = len2 > 0 ? std::clamp((p - c).dot(cd) / len2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (c + u * cd - p).norm());
+  }
+  return best;
+}
+
+double TissuePath::distance(const SurfaceMesh& m, const Eigen::Vector3d& p) const {
+  return distanceWith([&](std::size_t i) { return pointAt(m, i); }, p);
+}
+
+double TissuePath::distanceAtRest(const Eigen::Vector3d& p) const {
+  return distanceWith([&](std::size_t i) { return rest_[i]; }, p);
 }
 
 void CutPathRecorder::contact(const SurfaceMesh& m, Face f, const Eigen::Vector3d& p) {

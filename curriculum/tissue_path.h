@@ -91,6 +91,16 @@ class TissuePath {
   // crosses is broken (thesis 6.3.3). Returns the number of crossings.
   int cutAcross(const mesh::SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                 const Eigen::Vector3d& n, double maxGap = 1.0);
+  // The same on the tissue at rest: a and b are cut points in the tissue's rest frame
+  // (the model as loaded), compared with the path where it was drawn (the positions
+  // embed() found), whatever the tissue's motion since. A path drawn on the tissue is
+  // crossed where the blade crosses it on the tissue, not in the world.
+  int cutAcrossAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
+                      double maxGap = 1.0);
+  // Distance of p to the path's segments that cutAcross / cutAcrossAtRest test (a cut
+  // point on the path touches it; whether the cut crossed is known when it leaves).
+  [[nodiscard]] double distance(const mesh::SurfaceMesh& m, const Eigen::Vector3d& p) const;
+  [[nodiscard]] double distanceAtRest(const Eigen::Vector3d& p) const;
 
  private:
   void startTracking(const mesh::SurfaceMesh& m);
@@ -98,7 +108,15 @@ class TissuePath {
   std::size_t relayout(const mesh::SurfaceMesh& m);
   [[nodiscard]] Eigen::Vector3d pointAt(const mesh::SurfaceMesh& m, std::size_t i) const;
 
+  template <class At>
+  int cutAcrossWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
+                    double maxGap);
+
+  template <class At>
+  [[nodiscard]] double distanceWith(const At& at, const Eigen::Vector3d& p) const;
+
   std::vector<Point> pts_;
+  std::vector<Eigen::Vector3d> rest_;  // where each point was drawn (embed's positions)
   // Edit following: cached world positions, the points of each face, the journal cursor.
   std::vector<Eigen::Vector3d> world_;
   std::vector<std::int64_t> origin_;  // original triangle of each point's face

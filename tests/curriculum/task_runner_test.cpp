@@ -318,6 +318,34 @@ TEST(TaskRunnerPhysics, EstimateWhenPhysicsIsOff) {
   EXPECT_EQ(runJson(task, p)["stretch_force"]["model"], "physics");
 }
 
+TEST(TaskRunnerPhysics, CutOnMovingTissueIsRecordedOnTheTissueAtRest) {
+  // The grasper lifts the sheet 3 mm beside the line, then the scalpel cuts across it
+  // there: the blade meets the sheet above its rest plane, but the cut is where the
+  // blade went through the tissue, so the recorded cut lies on the sheet as loaded
+  // (z = 0, the plane the path was drawn on) and crosses the drawn line once.
+  Task task = graspTask(60.0);
+  task.rightTool = "scalpel";
+  const mesh::SurfaceMesh m = grid(8);
+  devices::Trajectory tr = graspAndPull(V(3, 4.5, 0), V(0, 0, 3), 3.0);
+  devices::Trajectory cut = stroke(3.0, 1.5, 4.0, -2.0, 250);
+  for (auto& s : cut.samples) s.t += 1.6;
+  tr.samples.insert(tr.samples.end(), cut.samples.begin(), cut.samples.end());
+  std::stable_sort(tr.samples.begin(), tr.samples.end(), [](const auto& a, const auto& b) { return a.t < b.t; });
+  const RunResult r = runTask(task, m, tr);
+  ASSERT_TRUE(r.physics.on);
+  ASSERT_FALSE(r.physics.heldStill);
+  EXPECT_EQ(r.physics.grasps, 1);
+  ASSERT_GE(r.cut.size(), 2u);
+  double lifted = 0.0;
+  for (const auto& q : r.drawn) lifted = std::max(lifted, q.p.z());
+  EXPECT_GT(lifted, 0.5);  // the tissue did move (the line went up with it)
+  for (const auto& q : r.cut) {
+    EXPECT_NEAR(q.p.z(), 0.0, 1e-9);
+    EXPECT_NEAR(q.p.x(), 3.0, 0.3);
+  }
+  EXPECT_EQ(r.metrics.pathBreaks, 1);
+}
+
 TEST(TaskRunnerPhysics, BalancedHomesKeepTheModelAtRest) {
   // The pre-stretched springs pull the sheet's rim inward; with the homes balanced the
   // model as loaded is at rest, and stays there while nothing touches it.
