@@ -186,15 +186,16 @@ TEST(Validity, PhysicsGraspForceRanksAndLeavesTheCutNearlyUnchanged) {
 TEST(Validity, ExpertPassesTheStraightLineOnTissueMovingUnderTheBlade) {
   // With the tissue moving under the blade (--physics on) the cut is recorded on the
   // tissue at rest, where the line was drawn: the expert's straight cut is graded as
-  // on the still tissue (score within 5 points, at most 2 path breaks; it was 16.5
-  // with 44 breaks when the blade's world points were compared with the moving line).
+  // on the still tissue (score within 5 points, at most 4 path breaks: 2 and 0 measured
+  // on a Zen 5, room for another kernel path's last bits; it was 16.5 with 44 breaks
+  // when the blade's world points were compared with the moving line).
   for (unsigned seed : {1u, 3u}) {
     SCOPED_TRACE(seed);
     const RunResult on = attempt("slab-straight-line", 0, 250, seed, true);
     const RunResult off = attempt("slab-straight-line", 0, 250, seed, false);
     ASSERT_TRUE(on.physics.on);
     ASSERT_FALSE(on.physics.heldStill);
-    EXPECT_LE(on.metrics.pathBreaks, 2);
+    EXPECT_LE(on.metrics.pathBreaks, 4);
     EXPECT_NEAR(on.assessment.score, off.assessment.score, 5.0);
     EXPECT_TRUE(on.assessment.passed) << (on.assessment.failures.empty() ? "" : on.assessment.failures[0]);
     EXPECT_EQ(on.metrics.contactBreaks, off.metrics.contactBreaks);
