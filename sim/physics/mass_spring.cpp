@@ -294,6 +294,15 @@ std::optional<double> sharedStiffness(const Cache& c, std::size_t ns) {
 // (the lower ones come from earlier vertices' CSR rows, in row order, then its own row,
 // sorted), one rank per neighbour position; a group's lanes sorted by degree
 // (descending, stable), each block padded to its largest degree.
+// Every rank of lane `lane` in block `blk` gets vertex i as its far end: l = 0, so a
+// padding lane adds nothing and the AVX-512 step without the monitor's sums needs no
+// k ≠ 0 test (one operation a rank fewer). Lanes past n (no vertex) keep the group's
+// first vertex; their results are not stored.
+void pointLaneAtItself(Cache& c, std::size_t blk, std::size_t lane, std::size_t i) {
+  for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
+    c.rankX[detail::kLanes * r + lane] = static_cast<std::uint32_t>(3 * i);
+}
+
 void buildBlocks(Cache& c, std::size_t n) {
   constexpr std::size_t L = detail::kLanes, G = detail::kGroup;
   if (3 * n >= std::numeric_limits<std::uint32_t>::max()) throw PhysicsError("mesh too large for the spring cache");
@@ -350,11 +359,7 @@ void buildBlocks(Cache& c, std::size_t n) {
       const std::size_t i = G * g + c.slotVertex[G * g + slot];
       if (i >= n) continue;
       const std::size_t blk = 2 * g + slot / L, lane = slot % L;
-      // A padding lane's far end is its own vertex: l = 0, so the AVX-512 step without
-      // the monitor's sums needs no k ≠ 0 test (one operation a rank fewer). Lanes
-      // past n (no vertex) keep the group's first vertex; their results are not stored.
-      for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
-        c.rankX[L * r + lane] = static_cast<std::uint32_t>(3 * i);
+      pointLaneAtItself(c, blk, lane, i);
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
         const std::uint32_t q = adjSlot[a];
         const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
@@ -466,9 +471,7 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
   // (the AVX-512 step without the monitor's sums relies on it: see there).
   for (std::size_t i = n0; i < std::min(n, detail::kGroup * c.extraGroup.size()); ++i) {
     const std::size_t g = i / detail::kGroup, slot = c.vertexSlot[i];
-    const std::size_t blk = 2 * g + slot / detail::kLanes, lane = slot % detail::kLanes;
-    for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
-      c.rankX[detail::kLanes * r + lane] = static_cast<std::uint32_t>(3 * i);
+    pointLaneAtItself(c, 2 * g + slot / detail::kLanes, slot % detail::kLanes, i);
   }
   // New groups of vertices: no ranks, lanes in vertex order.
   const std::size_t ng = (n + detail::kGroup - 1) / detail::kGroup;
