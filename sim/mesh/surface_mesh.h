@@ -221,6 +221,8 @@ class SurfaceMesh {
   [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_.view(); }
   [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_.view(); }
 
+  // Room for nv vertices, ne edges and nf faces (every property array, and the edits'
+  // per-face scratch) before an array is reallocated.
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
 
   [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v] != 0; }
@@ -467,8 +469,9 @@ class SurfaceMesh {
   HandleLog<Face> journalF_;
   void newLayout();
 
-  // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
-  // edits use them), so that edits in steady state do not allocate. splitVertex and
+  // Scratch buffers of the edits (never copied with the mesh, moved with it: their
+  // capacity is what the edits need; only non-const edits use them), so that edits in
+  // steady state do not allocate. splitVertex and
   // separateEdge have their own, since separateEdge passes its fan to splitVertex.
   struct EdgeSwap {
     Face face;
