@@ -256,15 +256,17 @@ struct CutEngine::Impl {
   // Room for the cuts to come (a quarter more of every element): without it the first
   // edit that outgrows a copied, loaded or compacted mesh (arrays exactly full) copies
   // every element array at once (on a 100k-triangle tissue, milliseconds in one sample).
-  // The engine's own per-face and per-vertex marks (the walk's face lists, the flips'
-  // thin cache) are sized to that room at the same time: sized on first use instead,
-  // they were filled inside the first edits of a cut (on the CLI's expert straight line,
+  // The room is written once (no first-touch page faults inside a sample later), and
+  // the engine's own per-face and per-vertex marks (the walk's face lists, the flips'
+  // thin cache) are sized to it at the same time: sized on first use instead, they
+  // were filled inside the first edits of a cut (on the CLI's expert straight line,
   // ~0.2 M of the 1.7 M instructions of its 78 cut triangles).
   void roomToCut(std::size_t k) {
     SurfaceMesh& m = objects[k].mesh;
     const std::size_t nv = m.verticesSize() + m.verticesSize() / 4 + 256;
     const std::size_t nf = m.facesSize() + m.facesSize() / 4 + 512;
     m.reserve(nv, m.edgesSize() + m.edgesSize() / 4 + 768, nf);
+    m.touchReserved();  // the cuts fill it without first-touch page faults
     if (faceMark.size() < nf) {
       faceMark.resize(nf, 0);
       faceMarkAt.resize(nf, 0);

@@ -141,6 +141,12 @@ void SurfaceMesh::reserve(std::size_t nv, std::size_t ne, std::size_t nf) {
   if (scratch_.fanMark.size() < nf) scratch_.fanMark.resize(nf, 0);
 }
 
+void SurfaceMesh::touchReserved() {
+  vprops_.touchReserved();
+  eprops_.touchReserved();
+  fprops_.touchReserved();
+}
+
 void SurfaceMesh::removeVertexProperty(const std::string& name) {
   if (name.rfind("v:point", 0) == 0 || name == "v:edges" || name == "v:deleted")
     throw PropertyError("cannot remove built-in property '" + name + "'");

@@ -224,6 +224,10 @@ class SurfaceMesh {
   // Room for nv vertices, ne edges and nf faces (every property array, and the edits'
   // per-face scratch) before an array is reallocated.
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
+  // Writes the reserved room of every property array once (nothing changes), so that
+  // the edits that fill it later do not page-fault on fresh memory (a real-time loop
+  // reserves and touches when an object is loaded, not in its step).
+  void touchReserved();
 
   [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v] != 0; }
   [[nodiscard]] bool isDeleted(Edge e) const { return edeleted_[e] != 0; }
