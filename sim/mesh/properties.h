@@ -43,6 +43,9 @@ class BasePropertyArray {
   virtual ~BasePropertyArray() = default;
   virtual void resize(std::size_t n) = 0;
   virtual void reserve(std::size_t n) = 0;
+  // Writes the room past the last element once (defaults, discarded at once), so that
+  // elements appended there later do not take the first-touch page faults.
+  virtual void touchReserved() = 0;
   virtual void pushBack() = 0;
   // Appends a copy of element `from` (pushBack then copyElement, in one pass).
   virtual void pushBackCopy(std::size_t from) = 0;
@@ -65,6 +68,11 @@ class PropertyArray final : public BasePropertyArray {
   PropertyArray(std::string name, T def) : BasePropertyArray(std::move(name)), default_(std::move(def)) {}
   void resize(std::size_t n) override { data_.resize(n, default_); }
   void reserve(std::size_t n) override { data_.reserve(n); }
+  void touchReserved() override {
+    const std::size_t n = data_.size();
+    data_.resize(data_.capacity(), default_);  // within the capacity: no reallocation
+    data_.resize(n);
+  }
   void pushBack() override { data_.push_back(default_); }
   void pushBackCopy(std::size_t from) override {
     if constexpr (std::is_same_v<T, bool>) {
@@ -217,6 +225,9 @@ class PropertyContainer {
     if (n <= capacity_) return;
     for (auto& a : arrays_) a->reserve(n);
     capacity_ = n;
+  }
+  void touchReserved() {
+    for (auto& a : arrays_) a->touchReserved();
   }
   void copyElement(std::size_t from, std::size_t to) {
     for (auto& a : arrays_) a->copyElement(from, to);

@@ -100,7 +100,8 @@ SurfaceMesh::SurfaceMesh(SurfaceMesh&& o) noexcept
       layoutVersion_(o.layoutVersion_),
       journalV_(std::move(o.journalV_)),
       journalE_(std::move(o.journalE_)),
-      journalF_(std::move(o.journalF_)) {
+      journalF_(std::move(o.journalF_)),
+      scratch_(std::move(o.scratch_)) {
   bindProperties();
   o.initBuiltins();
 }
@@ -116,6 +117,7 @@ SurfaceMesh& SurfaceMesh::operator=(SurfaceMesh&& o) noexcept {
     topologyVersion_ = o.topologyVersion_ + 1;
     // The contents are replaced: a cache built for this object's old contents must
     // not read the journal as a continuation, so the layout is new.
+    scratch_ = std::move(o.scratch_);
     bindProperties();
     o.initBuiltins();
     newLayout();
@@ -134,6 +136,15 @@ void SurfaceMesh::reserve(std::size_t nv, std::size_t ne, std::size_t nf) {
   vprops_.reserve(nv);
   eprops_.reserve(ne);
   fprops_.reserve(nf);
+  // splitVertex's per-face marks too (stamps: zeros are "unmarked"), so that the first
+  // split after a reserve does not size and fill them inside an edit.
+  if (scratch_.fanMark.size() < nf) scratch_.fanMark.resize(nf, 0);
+}
+
+void SurfaceMesh::touchReserved() {
+  vprops_.touchReserved();
+  eprops_.touchReserved();
+  fprops_.touchReserved();
 }
 
 void SurfaceMesh::removeVertexProperty(const std::string& name) {

@@ -221,7 +221,13 @@ class SurfaceMesh {
   [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_.view(); }
   [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_.view(); }
 
+  // Room for nv vertices, ne edges and nf faces (every property array, and the edits'
+  // per-face scratch) before an array is reallocated.
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
+  // Writes the reserved room of every property array once (nothing changes), so that
+  // the edits that fill it later do not page-fault on fresh memory (a real-time loop
+  // reserves and touches when an object is loaded, not in its step).
+  void touchReserved();
 
   [[nodiscard]] bool isDeleted(Vertex v) const { return vdeleted_[v] != 0; }
   [[nodiscard]] bool isDeleted(Edge e) const { return edeleted_[e] != 0; }
@@ -467,8 +473,9 @@ class SurfaceMesh {
   HandleLog<Face> journalF_;
   void newLayout();
 
-  // Scratch buffers of the edits (never copied or moved with the mesh; only non-const
-  // edits use them), so that edits in steady state do not allocate. splitVertex and
+  // Scratch buffers of the edits (never copied with the mesh, moved with it: their
+  // capacity is what the edits need; only non-const edits use them), so that edits in
+  // steady state do not allocate. splitVertex and
   // separateEdge have their own, since separateEdge passes its fan to splitVertex.
   struct EdgeSwap {
     Face face;

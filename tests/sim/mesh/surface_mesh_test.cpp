@@ -531,6 +531,42 @@ TEST(SurfaceMesh, ReserveCoversEveryPropertySoEditsMoveNoArray) {
   EXPECT_VALID(m);
 }
 
+// touchReserved() writes the reserved room once and changes nothing: same sizes, same
+// values, same arrays (no reallocation), and the edits afterwards fill the room as before.
+TEST(SurfaceMesh, TouchReservedChangesNothingAndMovesNoArray) {
+  SurfaceMesh m = grid(2);
+  auto mass = m.addVertexProperty<double>("v:mass", 1.0);
+  auto tag = m.addFaceProperty<int>("f:tag", 3);
+  for (Face f : m.faces()) tag[f] = static_cast<int>(f.idx()) + 10;
+  m.reserve(100, 300, 200);
+  const std::size_t nv = m.verticesSize(), ne = m.edgesSize(), nf = m.facesSize();
+  const std::vector<Point> before = m.positions();
+  const Point* points = m.positions().data();
+  const double* massData = mass.vector().data();
+  const int* tagData = tag.vector().data();
+  const std::uint64_t topology = m.topologyVersion(), layout = m.layoutVersion();
+  m.touchReserved();
+  EXPECT_EQ(m.verticesSize(), nv);
+  EXPECT_EQ(m.edgesSize(), ne);
+  EXPECT_EQ(m.facesSize(), nf);
+  EXPECT_EQ(m.positions(), before);
+  EXPECT_EQ(m.positions().data(), points);
+  EXPECT_EQ(mass.vector().data(), massData);
+  EXPECT_EQ(tag.vector().data(), tagData);
+  EXPECT_EQ(mass.vector().size(), nv);
+  EXPECT_EQ(m.topologyVersion(), topology);
+  EXPECT_EQ(m.layoutVersion(), layout);
+  for (Face f : m.faces()) EXPECT_EQ(tag[f], static_cast<int>(f.idx()) + 10);
+  for (int i = 0; i < 30; ++i) {
+    const Face f(static_cast<std::uint32_t>(i % 8));
+    const Vertex c = m.splitFace(f, m.centroid(f));
+    EXPECT_EQ(mass[c], 1.0);  // the defaults, not what touchReserved wrote and dropped
+  }
+  EXPECT_EQ(m.positions().data(), points);
+  EXPECT_EQ(tag.vector().data(), tagData);
+  EXPECT_VALID(m);
+}
+
 // Properties grow together: one growth step gives every array (the built-in ones, the
 // attached ones) room for the same number of elements.
 TEST(SurfaceMesh, PropertiesGrowTogether) {
