@@ -277,25 +277,15 @@ struct CutEngine::Impl {
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
     if (!tissue(obj)) return;
-    SurfaceMesh& m = meshOf(obj);
-    std::vector<Vertex> list;
-    for (Vertex v : vs) {
-      if (!m.isValid(v)) continue;
-      list.push_back(v);
-      for (Edge e : m.edges(v)) physics::initEdge(m, e, p.tissue);
-    }
-    physics::redistributeMass(m, list, p.tissue);
+    physics::initEdgesAround(meshOf(obj), std::span<const Vertex>(vs.begin(), vs.size()), p.tissue);
   }
 
-  // touch(obj, {x}) for each x in turn (the tissue hooks per vertex, as before), the
-  // object looked up once.
+  // touch(obj, {x}) for each x, in one go: the tissue hooks' results are the same (an
+  // edge's spring reads only the homes, a mass only its vertex's springs and areas).
   void touchEach(int obj, std::span<const Vertex> vs) {
-    if (tissue(obj)) {
-      for (Vertex v : vs) touch(obj, {v});
-      return;
-    }
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
+    if (tissue(obj)) physics::initEdgesAround(meshOf(obj), vs, p.tissue);
   }
 
   // ---- geometry helpers --------------------------------------------------------------
