@@ -221,7 +221,7 @@ void TriangleBvh::updateBlockVerts(std::uint32_t b) {
     }
 }
 
-void TriangleBvh::fitBlock(const Vector3d* P, std::uint32_t b) {
+void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
   Node& n = nodes_[blockLeaf_[b]];
   const BlockVerts& bv = blockVerts_[b];
   if (bv.n == 0) {
@@ -230,6 +230,22 @@ void TriangleBvh::fitBlock(const Vector3d* P, std::uint32_t b) {
       n.hi[k] = -kInf;
     }
     return;
+  }
+  const Vector3d* P = X;
+  double padTotal = pad_;
+  if (margin_ > 0.0) {
+    // Fat box around the anchors; a corner that left its anchor's reach is
+    // re-anchored here, and its other leaves are refitted after this round.
+    const double limit = margin_ - slack_;
+    for (std::uint32_t j = 0; j < bv.n; ++j) {
+      const std::uint32_t v = bv.v[j];
+      if (!((X[v] - anchor_[v]).cwiseAbs().maxCoeff() <= limit)) {
+        anchor_[v] = X[v];
+        stale_.push_back(v);
+      }
+    }
+    P = anchor_.data();
+    padTotal += margin_;
   }
 #if defined(__SSE2__)
   const double* p = P[bv.v[0]].data();
@@ -243,7 +259,7 @@ void TriangleBvh::fitBlock(const Vector3d* P, std::uint32_t b) {
     hz = _mm_max_sd(hz, z);
   }
   // roundDown / roundUp of (value -+ pad), two lanes at a time.
-  const __m128d pad = _mm_set1_pd(pad_), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
+  const __m128d pad = _mm_set1_pd(padTotal), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
   const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
   const auto down = [&](__m128d x) {
     x = _mm_sub_pd(x, pad);
@@ -265,8 +281,8 @@ void TriangleBvh::fitBlock(const Vector3d* P, std::uint32_t b) {
     hi = hi.max(P[bv.v[j]].array());
   }
   for (int k = 0; k < 3; ++k) {
-    n.lo[k] = roundDown(lo[k] - pad_);
-    n.hi[k] = roundUp(hi[k] + pad_);
+    n.lo[k] = roundDown(lo[k] - padTotal);
+    n.hi[k] = roundUp(hi[k] + padTotal);
   }
 #endif
 }
@@ -631,6 +647,10 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // Leaf boxes block by block (sequential reads of the distinct corners), then the
   // inner nodes from lists ordered children first: no recursion, no test per node.
   const Vector3d* P = m.positions().data();
+  if (margin_ > 0.0) {  // every vertex anchored where it is
+    anchor_.assign(m.positions().begin(), m.positions().end());
+    slack_ = margin_;
+  }
   const auto nb = static_cast<std::uint32_t>(blocks_.size());
   // In double, rounded outwards once per box exactly as the local refits do. A float
   // path (positions converted once, boxes widened by ~2 ulps: slightly larger boxes)
@@ -645,6 +665,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // build's inner nodes; each list from the highest index down.
   for (std::uint32_t i : innerLate_) fitInner(i);
   for (std::uint32_t i : inner_) fitInner(i);
+  stale_.clear();  // (only non-finite positions get here; every vertex was just anchored)
 }
 
 void TriangleBvh::beginRefit() {
@@ -676,6 +697,125 @@ void TriangleBvh::addDirty(std::uint32_t i) {
 }
 
 void TriangleBvh::finishRefit(const mesh::SurfaceMesh& m) {
+  fitRound(m);
+  // Vertices re-anchored in that round: their other leaves still hold boxes around the
+  // old anchor. Each round re-anchors only vertices not re-anchored before, so it ends.
+  while (!stale_.empty()) {
+    staleWork_.swap(stale_);
+    stale_.clear();
+    beginRefit();
+    for (std::uint32_t v : staleWork_) addVertexLeaves(m, Vertex(v));
+    fitRound(m);
+  }
+}
+
+void TriangleBvh::growAnchors(const mesh::SurfaceMesh& m) {
+  // Vertices the tree has not seen yet are anchored where they are.
+  const auto& X = m.positions();
+  anchor_.insert(anchor_.end(), X.begin() + static_cast<std::ptrdiff_t>(anchor_.size()), X.end());
+}
+
+void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
+  if (!(margin >= 0.0) || !std::isfinite(margin))
+    throw CollisionError("TriangleBvh::setMotionMargin: margin must be finite and >= 0");
+  margin_ = margin;
+  slack_ = margin;
+  if (margin_ == 0.0) {
+    anchor_.clear();
+    anchor_.shrink_to_fit();
+  }
+  refit(m);
+}
+
+std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) {
+  checkMesh(m, "refitMoved");
+  if (margin_ <= 0.0) {
+    refit(m);
+    return m.nVertices();
+  }
+  // Nobody moved farther than the slack the last pass left: every box still holds.
+  // (The caller's bound may miss the rounding of x + dx: a few ulps of the coordinates.)
+  const double move = maxMove + 4.0 * DBL_EPSILON * padScale_;
+  if (move <= slack_) {
+    slack_ -= move;
+    return 0;
+  }
+  if (anchor_.size() < m.verticesSize()) growAnchors(m);
+  ++motionPasses_;
+  // With a bound from the caller, re-anchor at half the margin so the next steps fit
+  // in the slack; without one, only what must be.
+  const double theta = std::isfinite(maxMove) ? 0.5 * margin_ : margin_;
+  const Vector3d* X = m.positions().data();
+  Vector3d* A = anchor_.data();
+  const std::size_t nv = m.verticesSize();
+  std::vector<std::uint32_t>& moving = staleWork_;  // (free here: finishRefit uses it later)
+  moving.clear();
+  double worst = 0.0;
+  // Blocks of 8 vertices as 24 flat coordinates (a loop the compiler vectorises);
+  // only a block with a coordinate past theta is looked at vertex by vertex.
+  static_assert(sizeof(Vector3d) == 3 * sizeof(double));
+  const double* x = X[0].data();
+  const double* a = A[0].data();
+  constexpr std::size_t kChunk = 8;
+  for (std::size_t v0 = 0; v0 < nv; v0 += kChunk) {
+    const std::size_t n = std::min(kChunk, nv - v0);
+    if (n == kChunk) {
+      const double* xc = x + 3 * v0;
+      const double* ac = a + 3 * v0;
+#if defined(__SSE2__)
+      const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+      const __m128d th = _mm_set1_pd(theta);
+      __m128d mx = _mm_setzero_pd(), bad = _mm_setzero_pd();
+      for (std::size_t k = 0; k < 3 * kChunk; k += 2) {
+        const __m128d e = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + k), _mm_loadu_pd(ac + k)), absMask);
+        mx = _mm_max_pd(mx, e);
+        bad = _mm_or_pd(bad, _mm_cmpnle_pd(e, th));  // NaN counts as moved
+      }
+      if (_mm_movemask_pd(bad) == 0) {
+        worst = std::max({worst, _mm_cvtsd_f64(mx), _mm_cvtsd_f64(_mm_unpackhi_pd(mx, mx))});
+        continue;
+      }
+#else
+      double d = 0.0;
+      bool bad = false;
+      for (std::size_t k = 0; k < 3 * kChunk; ++k) {
+        const double e = std::abs(xc[k] - ac[k]);
+        d = std::max(d, e);
+        bad = bad || !(e <= theta);
+      }
+      if (!bad) {
+        worst = std::max(worst, d);
+        continue;
+      }
+#endif
+    }
+    for (std::size_t v = v0; v < v0 + n; ++v) {
+      const double dv = (X[v] - A[v]).cwiseAbs().maxCoeff();
+      if (dv <= theta) {
+        worst = std::max(worst, dv);
+        continue;
+      }
+      moving.push_back(static_cast<std::uint32_t>(v));
+    }
+  }
+  // A vertex's leaves cost ~50x a vertex of the full refit (the faces around it, the
+  // climb to the root): past a few percent of the vertices (a sag or a drift of the
+  // whole tissue) one refit() of everything is cheaper, and leaves the full slack.
+  if (32 * moving.size() > nv) {
+    refit(m);
+    return m.nVertices();
+  }
+  beginRefit();
+  for (std::uint32_t v : moving) {
+    A[v] = X[v];
+    addVertexLeaves(m, Vertex(v));
+  }
+  slack_ = margin_ - worst;
+  finishRefit(m);
+  return moving.size();
+}
+
+void TriangleBvh::fitRound(const mesh::SurfaceMesh& m) {
   // Only the starts none of whose children is in the set; the others are fitted on
   // the way up, by the last of their children.
   std::size_t w = 0;

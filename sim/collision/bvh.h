@@ -97,6 +97,24 @@ class TriangleBvh {
   // takes a vertex index list as is (e.g. physics' awake list in active-region mode).
   void refitVertices(const mesh::SurfaceMesh& m, std::span<const mesh::Vertex> moved);
   void refitVertices(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved);
+
+  // Fat boxes for tissue that moves a little every step (physics without an active
+  // region): with a margin > 0 every leaf box is fitted around the positions its
+  // corners had when they were last anchored, grown by the margin, and a vertex is
+  // re-anchored (its leaves refitted) only once it has moved farther than that from
+  // its anchor (per coordinate). Queries stay exact (they test the true positions);
+  // only the pruning boxes are larger. Default 0: tight boxes, behaviour unchanged.
+  // Takes effect at once (a full refit).
+  void setMotionMargin(const mesh::SurfaceMesh& m, double margin);
+  [[nodiscard]] double motionMargin() const { return margin_; }
+  [[nodiscard]] std::size_t motionPasses() const { return motionPasses_; }  // refitMoved calls that read the vertices
+  // Every vertex may have moved: with a margin, one pass over the vertices re-anchors
+  // those that moved farther than half the margin (or the whole margin when maxMove
+  // is not finite) and refits their leaves; when `maxMove`, a bound on how far (per
+  // coordinate) any vertex moved since the last call, fits in the slack the last pass
+  // left, nothing is read at all. Without a margin: refit(). Returns the vertices
+  // re-anchored (all of them for a refit()).
+  std::size_t refitMoved(const mesh::SurfaceMesh& m, double maxMove = std::numeric_limits<double>::infinity());
   // After m.garbageCollection() (which returned `c`): renumbers the tree's faces and
   // corners through c.faceMap instead of rebuilding; faces the compaction dropped
   // leave their leaves. Also for a copy of a tree whose mesh was copied and then cut
@@ -187,7 +205,12 @@ class TriangleBvh {
   std::uint32_t newPair(std::uint32_t parent);
   std::uint32_t newBlock(std::uint32_t leaf);
   void makeLeaf(std::uint32_t node, const std::uint32_t* faces, std::size_t count, const mesh::SurfaceMesh& m);
-  void fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i) { fitBlock(m.positions().data(), nodes_[i].index); }
+  void fitLeaf(const mesh::SurfaceMesh& m, std::uint32_t i) {
+    if (margin_ > 0.0 && anchor_.size() < m.verticesSize()) growAnchors(m);
+    fitBlock(m.positions().data(), nodes_[i].index);
+  }
+  void growAnchors(const mesh::SurfaceMesh& m);
+  void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
   void fitInner(std::uint32_t i);
   void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
@@ -255,6 +278,12 @@ class TriangleBvh {
   std::size_t seenJournal_ = 0;  // editedFaces() entries already applied
   std::size_t seenFaces_ = 0, seenVertices_ = 0;
   bool built_ = false;
+  // Fat boxes (setMotionMargin): per vertex the position its leaves were fitted
+  // around; every vertex is within margin_ - slack_ of it (per coordinate).
+  double margin_ = 0.0, slack_ = 0.0;
+  std::size_t motionPasses_ = 0;
+  std::vector<Eigen::Vector3d> anchor_;
+  std::vector<std::uint32_t> stale_, staleWork_;  // re-anchored in a fit: their other leaves follow
 };
 
 }  // namespace ld::collision

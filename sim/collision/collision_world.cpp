@@ -75,6 +75,18 @@ void CollisionWorld::refitVertices(ObjectId id, std::span<const std::uint32_t> m
   e.bvh.refitVertices(*e.mesh, moved);
 }
 
+void CollisionWorld::setMotionMargin(ObjectId id, double margin) {
+  Entry& e = entry(id);
+  e.current();
+  e.bvh.setMotionMargin(*e.mesh, margin);
+}
+
+std::size_t CollisionWorld::refitMoved(ObjectId id, double maxMove) {
+  Entry& e = entry(id);
+  e.current();
+  return e.bvh.refitMoved(*e.mesh, maxMove);
+}
+
 SyncResult CollisionWorld::remap(ObjectId id, const mesh::Compaction& c) {
   Entry& e = entry(id);
   return e.bvh.remap(*e.mesh, c);

@@ -15,6 +15,7 @@
 // are const but may update the trees this way, so a world is not to be queried
 // from several threads at once.
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <span>
 #include <vector>
@@ -75,6 +76,10 @@ class CollisionWorld {
   // Only the boxes around these vertices of one object (an active region).
   void refitVertices(ObjectId id, std::span<const mesh::Vertex> moved);
   void refitVertices(ObjectId id, std::span<const std::uint32_t> moved);  // vertex indices
+  // Fat boxes for an object that moves a little every step (TriangleBvh::setMotionMargin),
+  // then refitMoved(id) after each step instead of refit().
+  void setMotionMargin(ObjectId id, double margin);
+  std::size_t refitMoved(ObjectId id, double maxMove = std::numeric_limits<double>::infinity());
   // After mesh.garbageCollection() returned `c`: the tree renumbered through c's maps
   // (TriangleBvh::remap), no full rebuild unless most faces went.
   SyncResult remap(ObjectId id, const mesh::Compaction& c);

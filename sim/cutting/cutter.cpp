@@ -221,6 +221,7 @@ struct CutEngine::Impl {
   // at the next sample; compacted meshes (separation) by a rebuild.
   std::vector<collision::TriangleBvh> bvhs;
   std::vector<char> moved;                            // every vertex may have moved
+  std::vector<double> moveBound;                      // by at most this (per coordinate) since the last sync
   std::vector<std::vector<std::uint32_t>> movedList;  // else these moved (verticesMoved)
   long motionCount = 0;                               // object()/verticesMoved calls: tracks re-anchor to the tissue
   std::vector<collision::SurfaceHit> scratchHits;
@@ -297,25 +298,15 @@ struct CutEngine::Impl {
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
     if (!tissue(obj)) return;
-    SurfaceMesh& m = meshOf(obj);
-    std::vector<Vertex> list;
-    for (Vertex v : vs) {
-      if (!m.isValid(v)) continue;
-      list.push_back(v);
-      for (Edge e : m.edges(v)) physics::initEdge(m, e, p.tissue);
-    }
-    physics::redistributeMass(m, list, p.tissue);
+    physics::initEdgesAround(meshOf(obj), std::span<const Vertex>(vs.begin(), vs.size()), p.tissue);
   }
 
-  // touch(obj, {x}) for each x in turn (the tissue hooks per vertex, as before), the
-  // object looked up once.
+  // touch(obj, {x}) for each x, in one go: the tissue hooks' results are the same (an
+  // edge's spring reads only the homes, a mass only its vertex's springs and areas).
   void touchEach(int obj, std::span<const Vertex> vs) {
-    if (tissue(obj)) {
-      for (Vertex v : vs) touch(obj, {v});
-      return;
-    }
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
+    if (tissue(obj)) physics::initEdgesAround(meshOf(obj), vs, p.tissue);
   }
 
   // ---- geometry helpers --------------------------------------------------------------
@@ -2953,7 +2944,9 @@ struct CutEngine::Impl {
         objects.push_back(std::move(piece));
         hasTissue.push_back(t);
         bvhs.emplace_back(objects.back().mesh);
+        if (p.collisionMargin > 0.0) bvhs.back().setMotionMargin(objects.back().mesh, p.collisionMargin);
         moved.push_back(0);
+        moveBound.push_back(0.0);
         movedList.emplace_back();
         connected.emplace_back();
         markConnected(objects.size() - 1);
@@ -2995,7 +2988,12 @@ struct CutEngine::Impl {
     const SurfaceMesh& m = objects[i].mesh;
     collision::TriangleBvh& b = bvhs[i];
     if (b.sync(m) != collision::SyncResult::Rebuilt) {
-      if (moved[i]) {
+      if (moved[i] && b.motionMargin() > 0.0) {
+        const std::size_t passes = b.motionPasses();
+        stats.verticesReanchored += static_cast<long>(b.refitMoved(m, moveBound[i]));
+        stats.marginPasses += static_cast<long>(b.motionPasses() - passes);
+        ++stats.marginRefits;
+      } else if (moved[i]) {
         b.refit(m);
         ++stats.fullRefits;
       } else if (!movedList[i].empty()) {
@@ -3003,7 +3001,8 @@ struct CutEngine::Impl {
         ++stats.regionRefits;
         stats.verticesRefitted += static_cast<long>(movedList[i].size());
       }
-      if (!moved[i] && !slidPending.empty()) {
+      // (A full refit covers them; fat boxes do not when the physics' bound skipped the pass.)
+      if ((!moved[i] || b.motionMargin() > 0.0) && !slidPending.empty()) {
         // Groove-bottom vertices the cutter moved (slideBottom) since the last sync.
         slidScratch.clear();
         for (const auto& [id, x] : slidPending)
@@ -3013,6 +3012,7 @@ struct CutEngine::Impl {
     }
     std::erase_if(slidPending, [&](const auto& e) { return e.first == objects[i].id; });
     moved[i] = 0;
+    moveBound[i] = 0.0;
     movedList[i].clear();
   }
   std::vector<std::pair<int, Vertex>> slidPending;  // (object id, vertex) moved by slideBottom
@@ -3032,6 +3032,7 @@ struct CutEngine::Impl {
     }
     if (2 * l.size() > m.verticesSize()) {  // most of the mesh: one full refit is cheaper
       moved[i] = 1;
+      moveBound[i] = std::numeric_limits<double>::infinity();
       l.clear();
     }
   }
@@ -3716,7 +3717,10 @@ int CutEngine::addObject(mesh::SurfaceMesh m) {
   impl_->objects.push_back(std::move(o));
   impl_->roomToCut(impl_->objects.size() - 1);
   impl_->bvhs.emplace_back(impl_->objects.back().mesh);
+  if (impl_->p.collisionMargin > 0.0)
+    impl_->bvhs.back().setMotionMargin(impl_->objects.back().mesh, impl_->p.collisionMargin);
   impl_->moved.push_back(0);
+  impl_->moveBound.push_back(0.0);
   impl_->movedList.emplace_back();
   impl_->connected.emplace_back();
   // Known to be one piece: separation checks search from the edits only.
@@ -3731,6 +3735,7 @@ TissueObject& CutEngine::object(int id) {
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
   // The caller may move vertices: the object's BVH is refitted before the next query.
   impl_->moved[static_cast<std::size_t>(i)] = 1;
+  impl_->moveBound[static_cast<std::size_t>(i)] = std::numeric_limits<double>::infinity();
   ++impl_->motionCount;  // and the tracks' start and pending points move with it
   return impl_->objects[static_cast<std::size_t>(i)];
 }
@@ -3750,6 +3755,16 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
 }
 
 void CutEngine::verticesMoved(int id) { (void)object(id); }
+
+void CutEngine::verticesMovedWithin(int id, double maxMove) {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  const auto k = static_cast<std::size_t>(i);
+  if (!(maxMove >= 0.0)) maxMove = std::numeric_limits<double>::infinity();  // NaN or negative: unknown
+  impl_->moveBound[k] = impl_->moved[k] ? impl_->moveBound[k] + maxMove : maxMove;
+  impl_->moved[k] = 1;
+  ++impl_->motionCount;  // the tracks re-anchor to the tissue, as for object()
+}
 
 StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
   if (!pose.tip.allFinite() || !pose.dir.allFinite() || !pose.up.allFinite() || pose.dir.norm() < 1e-12)

@@ -64,6 +64,11 @@ struct CutParams {
   int maxNewTracksPerSample = 4;
   long strokeFacesMin = 4096;
   double strokeFacesFactor = 1.0;
+  // Fat collision boxes (collision::TriangleBvh::setMotionMargin) [mm]: with tissue
+  // that moves every step (physics without an active region) a moved object's tree
+  // then re-anchors only the vertices that moved farther than this instead of a full
+  // refit. 0: tight boxes, a full refit per motion. Hits are the same either way.
+  double collisionMargin = 0.0;
   instruments::Settings tool;
   // Physics hooks: when the mesh carries the tissue properties (physics::
   // hasTissueProperties), new vertices and edges are initialised with these.
@@ -142,6 +147,9 @@ struct CutStats {
   long fullRefits = 0;             // whole collision trees refitted (vertices moved through object())
   long regionRefits = 0;           // trees refitted only around named vertices (verticesMoved)
   long verticesRefitted = 0;       // vertices named in those region refits
+  long marginRefits = 0;           // moved trees with a collisionMargin refitted (refitMoved, no full refit)
+  long marginPasses = 0;           // of those, the ones that read every vertex (the others fit in the slack)
+  long verticesReanchored = 0;     // vertices those passes found past the margin (their leaves refitted)
   long fastSamples = 0;            // track samples that stayed in the pending triangle (no edit)
   long slowSamples = 0;            // track samples that walked or edited the mesh (timed)
   [[nodiscard]] double remeshMicrosPerCutTriangle() const {
@@ -173,6 +181,10 @@ class CutEngine {
   [[nodiscard]] mesh::SurfaceMesh& meshToMove(int id);
   void verticesMoved(int id, std::span<const std::uint32_t> vertices);
   void verticesMoved(int id);
+  // Every vertex may have moved, none farther than maxMove per coordinate [mm] (e.g.
+  // physics::Dynamics::maxMove): with a collisionMargin the tree is not even read
+  // while the moves add up to less than the slack its boxes have left.
+  void verticesMovedWithin(int id, double maxMove);
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

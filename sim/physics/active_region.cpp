@@ -1,6 +1,7 @@
 // Active-region mode (the thesis's local deformation, with sleeping): only awake
 // vertices are integrated; a vertex wakes when an external force acts on it (contact)
 // or a moving neighbour pulls it, and falls asleep after a run of quiet steps.
+#include <limits>
 #include <algorithm>
 #include <cmath>
 
@@ -251,6 +252,7 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
   a.list.resize(kept);
   state.time += dt;
   ++state.steps;
+  state.maxMove = std::numeric_limits<double>::infinity();  // the moved list says what moved
   a.movedStep = state.steps;
   StepInfo info;
   info.activeVertices = m;

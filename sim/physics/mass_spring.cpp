@@ -1154,13 +1154,18 @@ E0 integrate(Method m, const Params& p, const View& w, Cache& c, const Vec3* x0,
 struct Outcome {
   Check chk;
   E0 e0;
+  double maxMove = std::numeric_limits<double>::infinity();  // per coordinate (Dynamics::maxMove)
 };
 Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View& w, Cache& c, const Vec3* x0,
                 const Vec3* v0, Vec3* x1, Vec3* v1, double dt, double budget) {
   if (m == Method::SymplecticEuler) {
     SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled);
     if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
-    return {checkSymplectic(o, w, x1, v1, s, budget, dt), {s.spring0 + s.home0, s.ke0}};
+    // x1 = x0 + dt v1 per coordinate, and maxComp2 is the largest squared component of
+    // v1 (taken with the monitor's sums): the step's largest move, with room for roundings.
+    const double move = o.enabled ? dt * std::sqrt(s.maxComp2) * (1.0 + 1e-12)
+                                  : std::numeric_limits<double>::infinity();
+    return {checkSymplectic(o, w, x1, v1, s, budget, dt), {s.spring0 + s.home0, s.ke0}, move};
   }
   const E0 e0 = integrate(m, p, w, c, x0, v0, x1, v1, dt);
   return {checkStep(o, w, x0, x1, v1, e0, budget), e0};
@@ -1241,6 +1246,7 @@ bool rawStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, Met
   commit(state, mesh);
   state.time += dt;
   ++state.steps;
+  state.maxMove = std::numeric_limits<double>::infinity();
   return method == Method::SymplecticEuler ? finite : isFinite(mesh);
 }
 
@@ -1262,10 +1268,12 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
   double budget = state.energyBudget;
   const char* reason = "";
   bool ok = false;
+  double maxMove = std::numeric_limits<double>::infinity();
   if (sticky == 1) {
     const Outcome out = advance(m, params, params.stability, w, c, mesh.positions().data(), velocities(mesh).data(),
                                 c.xb.data(), c.vb.data(), dt, budget);
     ok = out.chk.ok;
+    if (ok) maxMove = out.maxMove;
     if (ok) budget = nextBudget(params.stability, budget, out.chk, out.e0, dt);
     reason = out.chk.reason;
   } else {
@@ -1287,6 +1295,7 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
       state.stickyLeft = params.stability.stickySteps;
     }
   }
+  if (!ok) maxMove = std::numeric_limits<double>::infinity();
   if (!ok) {
     ++state.stability.implicitFallbacks;
     info.implicitFallback = true;
@@ -1307,6 +1316,7 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
   commit(state, mesh);
   state.time += dt;
   ++state.steps;
+  state.maxMove = info.accepted ? maxMove : std::numeric_limits<double>::infinity();
   return info;
 }
 

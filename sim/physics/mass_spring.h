@@ -248,6 +248,11 @@ struct Dynamics {
   double energyBudget = std::numeric_limits<double>::quiet_NaN();
   detail::Cache cache;
   detail::ActiveSet active;
+  // After step(): a bound on how far any vertex moved in it, per coordinate [mm] (for
+  // a collision tree with fat boxes: TriangleBvh::refitMoved). +inf when unknown (a
+  // method other than symplectic Euler, the monitor off, substeps, a fallback, the
+  // active-region step, rawStep).
+  double maxMove = std::numeric_limits<double>::infinity();
 
   // Call after changing masses, rest lengths or stiffnesses without a topology edit.
   void invalidate() {

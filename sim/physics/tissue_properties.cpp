@@ -24,12 +24,6 @@ mesh::VertexProperty<T> requireV(const SurfaceMesh& m, const char* name) {
   return p;
 }
 
-template <class T>
-mesh::EdgeProperty<T> requireE(const SurfaceMesh& m, const char* name) {
-  auto p = m.getEdgeProperty<T>(name);
-  if (!p) throw MissingPropertyError(name);
-  return p;
-}
 
 double homeArea(const SurfaceMesh& m, const mesh::VertexProperty<Vec3>& home, Face f) {
   const auto& vs = m.vertices(f);
@@ -50,6 +44,35 @@ void setEdge(SurfaceMesh& m, Edge e, const TissueParams& p, const mesh::VertexPr
   k[e] = p.K / rest[e];
 }
 
+// The six properties, looked up once per hook instead of once per edge or vertex (a
+// lookup is a search by name: it was most of a hook's cost). Missing ones stay null;
+// each user requires what it reads, in the order the per-element code did.
+struct Props {
+  mesh::VertexProperty<Vec3> home, vel, force;
+  mesh::VertexProperty<double> mass;
+  mesh::EdgeProperty<double> rest, k;
+  explicit Props(const SurfaceMesh& m)
+      : home(m.getVertexProperty<Vec3>(kHomeProp)),
+        vel(m.getVertexProperty<Vec3>(kVelocityProp)),
+        force(m.getVertexProperty<Vec3>(kForceProp)),
+        mass(m.getVertexProperty<double>(kMassProp)),
+        rest(m.getEdgeProperty<double>(kRestProp)),
+        k(m.getEdgeProperty<double>(kStiffnessProp)) {}
+};
+
+template <class P>
+P& need(P& prop, const char* name) {
+  if (!prop) throw MissingPropertyError(name);
+  return prop;
+}
+
+void initEdgeWith(SurfaceMesh& m, Edge e, const TissueParams& p, Props& q) {
+  need(q.home, kHomeProp);
+  need(q.rest, kRestProp);
+  need(q.k, kStiffnessProp);
+  setEdge(m, e, p, q.home, q.rest, q.k);
+}
+
 }  // namespace
 
 bool hasTissueProperties(const SurfaceMesh& m) {
@@ -65,23 +88,38 @@ double massFloor(const TissueParams& p, double sumK) {
   return p.massFloorDt > 0.0 ? p.massFloorDt * p.massFloorDt * (p.homeK + 2.0 * sumK) : 0.0;
 }
 
-double springSum(const SurfaceMesh& m, Vertex v) {
-  const auto k = m.getEdgeProperty<double>(kStiffnessProp);
+double springSum(const SurfaceMesh& m, Vertex v, const mesh::EdgeProperty<double>& k) {
   double sum = 0.0;
   if (k)
     for (Edge e : m.edges(v)) sum += k[e];
   return sum;
 }
 
+double springSum(const SurfaceMesh& m, Vertex v) { return springSum(m, v, m.getEdgeProperty<double>(kStiffnessProp)); }
+
+// lumpedMass with the properties at hand and a face buffer (same faces, same order).
+double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, const Props& q, std::vector<Face>& faces) {
+  const double floor = p.massFloorDt > 0.0 ? massFloor(p, springSum(m, v, q.k)) : 0.0;
+  if (p.uniformMass) return std::max(p.vertexMass, floor);
+  const auto& home = need(q.home, kHomeProp);
+  double area = 0.0;
+  m.faces(v, faces);
+  for (Face f : faces) area += homeArea(m, home, f);
+  return std::max({p.density * area / 3.0, p.minMass, floor});
+}
+
+void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p, Props& q) {
+  auto& mass = need(q.mass, kMassProp);
+  std::vector<Face> faces;
+  for (Vertex v : vertices)
+    if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q, faces);
+}
+
 }  // namespace
 
 double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) {
-  const double floor = p.massFloorDt > 0.0 ? massFloor(p, springSum(m, v)) : 0.0;
-  if (p.uniformMass) return std::max(p.vertexMass, floor);
-  const auto home = requireV<Vec3>(m, kHomeProp);
-  double area = 0.0;
-  for (Face f : m.faces(v)) area += homeArea(m, home, f);
-  return std::max({p.density * area / 3.0, p.minMass, floor});
+  std::vector<Face> faces;
+  return lumpedMassWith(m, v, p, Props(m), faces);
 }
 
 void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
@@ -102,9 +140,18 @@ void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
 }
 
 void redistributeMass(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
-  auto mass = requireV<double>(m, kMassProp);
+  Props q(m);
+  redistributeMassWith(m, vertices, p, q);
+}
+
+void initEdgesAround(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
+  // Edges first, then masses: a mass reads only its own vertex's springs (the floor)
+  // and home areas, so this equals initEdge + redistributeMass vertex by vertex.
+  Props q(m);
   for (Vertex v : vertices)
-    if (m.isValid(v)) mass[v] = lumpedMass(m, v, p);
+    if (m.isValid(v))
+      for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
+  redistributeMassWith(m, vertices, p, q);
 }
 
 void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
@@ -127,28 +174,30 @@ void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
 }
 
 void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, const TissueParams& p) {
-  auto home = requireV<Vec3>(m, kHomeProp);
-  auto vel = requireV<Vec3>(m, kVelocityProp);
-  auto force = requireV<Vec3>(m, kForceProp);
+  Props q(m);
+  auto& home = need(q.home, kHomeProp);
+  auto& vel = need(q.vel, kVelocityProp);
+  auto& force = need(q.force, kForceProp);
   home[v] = p.newVertexHome == NewVertexHome::Current ? m.position(v) : Vec3((1.0 - t) * home[a] + t * home[b]);
   vel[v] = (1.0 - t) * vel[a] + t * vel[b];
   force[v].setZero();
-  for (Edge e : m.edges(v)) initEdge(m, e, p);
+  for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   const auto ring = oneRing(m, v);
-  redistributeMass(m, ring, p);
+  redistributeMassWith(m, ring, p, q);
 }
 
 void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, const Vec3& bary, const TissueParams& p) {
-  auto home = requireV<Vec3>(m, kHomeProp);
-  auto vel = requireV<Vec3>(m, kVelocityProp);
-  auto force = requireV<Vec3>(m, kForceProp);
+  Props q(m);
+  auto& home = need(q.home, kHomeProp);
+  auto& vel = need(q.vel, kVelocityProp);
+  auto& force = need(q.force, kForceProp);
   home[v] = p.newVertexHome == NewVertexHome::Current ? m.position(v)
                                                       : Vec3(bary[0] * home[a] + bary[1] * home[b] + bary[2] * home[c]);
   vel[v] = bary[0] * vel[a] + bary[1] * vel[b] + bary[2] * vel[c];
   force[v].setZero();
-  for (Edge e : m.edges(v)) initEdge(m, e, p);
+  for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   const auto ring = oneRing(m, v);
-  redistributeMass(m, ring, p);
+  redistributeMassWith(m, ring, p, q);
 }
 
 void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const TissueParams& p) {
@@ -157,22 +206,21 @@ void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const 
 }
 
 void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParams& p) {
-  auto home = requireV<Vec3>(m, kHomeProp);
-  auto vel = requireV<Vec3>(m, kVelocityProp);
-  auto force = requireV<Vec3>(m, kForceProp);
+  Props q(m);
+  auto& home = need(q.home, kHomeProp);
+  auto& vel = need(q.vel, kVelocityProp);
+  auto& force = need(q.force, kForceProp);
   home[v] = home[original];
   vel[v] = vel[original];
   force[v].setZero();
-  for (Edge e : m.edges(v)) initEdge(m, e, p);
-  const std::vector<Vertex> both{v, original};
-  redistributeMass(m, both, p);
+  for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
+  const Vertex both[2] = {v, original};
+  redistributeMassWith(m, both, p, q);
 }
 
 void initEdge(SurfaceMesh& m, Edge e, const TissueParams& p) {
-  const auto home = requireV<Vec3>(m, kHomeProp);
-  auto rest = requireE<double>(m, kRestProp);
-  auto k = requireE<double>(m, kStiffnessProp);
-  setEdge(m, e, p, home, rest, k);
+  Props q(m);
+  initEdgeWith(m, e, p, q);
 }
 
 }  // namespace ld::physics

@@ -89,6 +89,9 @@ void initEdge(mesh::SurfaceMesh& m, mesh::Edge e, const TissueParams& p);
 // Recomputes the lumped masses of the given vertices from their incident faces'
 // areas at the home positions (or sets the uniform mass).
 void redistributeMass(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertices, const TissueParams& p);
+// initEdge for every edge of each live vertex, then redistributeMass of them (what the
+// cutter does for the vertices an edit touched), the properties looked up once.
+void initEdgesAround(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertices, const TissueParams& p);
 // The same for every live vertex.
 void recomputeMasses(mesh::SurfaceMesh& m, const TissueParams& p);
 

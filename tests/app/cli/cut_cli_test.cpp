@@ -131,9 +131,16 @@ TEST(CutCli, PhysicsTellsTheCutterWhatMoved) {
   }
   const std::string base = "cut --mesh " + shellQuote((d.path / "box.obj").string()) + " --trajectory " +
                            shellQuote((d.path / "groove.csv").string()) + " --physics on";
-  const auto full = run(base);
+  const auto full = run(base + " --collision-margin 0");
   EXPECT_GT(full["collision_full_refits"].get<long>(), 100);
   EXPECT_EQ(full["collision_region_refits"], 0);
+  // By default fat collision boxes: no full refit, and the same cut.
+  const auto fat = run(base);
+  EXPECT_GT(fat["collision_margin"].get<double>(), 0.0);
+  EXPECT_EQ(fat["collision_full_refits"], 0);
+  EXPECT_GT(fat["collision_margin_refits"].get<long>(), 100);
+  for (const char* key : {"triangles_cut", "triangles_added", "vertices_added", "min_triangle_area", "closed"})
+    EXPECT_EQ(fat[key], full[key]) << key;
   const auto region = run(base + " --active-region on");
   EXPECT_EQ(region["active_region"], "on");
   EXPECT_EQ(region["nan"], false);

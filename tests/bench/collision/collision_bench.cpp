@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -77,9 +78,10 @@ void BM_SegmentTriangle(benchmark::State& st) {
 }
 BENCHMARK(BM_SegmentTriangle);
 
-void runQueries(benchmark::State& st, const Segments& segs) {
+void runQueries(benchmark::State& st, const Segments& segs, double margin = 0.0) {
   const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
-  const TriangleBvh bvh(m);
+  TriangleBvh bvh(m);
+  if (margin > 0) bvh.setMotionMargin(m, margin);
   std::vector<ld::collision::SurfaceHit> hits;
   std::size_t i = 0, total = 0;
   const std::size_t mask = segs.size() - 1;
@@ -100,6 +102,16 @@ void runQueries(benchmark::State& st, const Segments& segs) {
 
 void BM_QueryNear(benchmark::State& st) { runQueries(st, blades(1024)); }
 BENCHMARK(BM_QueryNear)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
+
+// The same with fat boxes (setMotionMargin, range(1) um): what the margin costs a query.
+void BM_QueryNearFat(benchmark::State& st) { runQueries(st, blades(1024), st.range(1) * 1e-3); }
+BENCHMARK(BM_QueryNearFat)
+    ->Args({50, 250})
+    ->Args({158, 100})
+    ->Args({158, 250})
+    ->Args({158, 500})
+    ->ArgNames({"cells", "margin_um"})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_QueryRandom(benchmark::State& st) { runQueries(st, randomSegments(1024)); }
 BENCHMARK(BM_QueryRandom)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
@@ -258,6 +270,61 @@ void BM_BvhRefitFull(benchmark::State& st) {
   st.counters["triangles"] = static_cast<double>(m.nFaces());
 }
 BENCHMARK(BM_BvhRefitFull)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
+
+// Moving tissue with fat boxes (setMotionMargin, range(1) um): every vertex moves each
+// step (a standing wave of amplitude range(2) um, period 200 steps, plus a slow sag
+// of 1 um per step, the kind of motion the CLI's physics makes), then refitMoved()
+// and four blade queries (what cut --physics on does per physics step), with the
+// step's largest move as the bound when range(3) = 1 (as the CLI passes the physics'
+// Dynamics::maxMove). Margin 0: refit() as before. Time per step; / 4 gives the CLI's
+// collision_us_per_query (refit charged to the queries). passes: share of steps that
+// read the vertices; reanchored: vertices per step whose leaves were refitted.
+void BM_BvhMovingTissue(benchmark::State& st) {
+  SurfaceMesh m = slabCells(static_cast<int>(st.range(0)));
+  const double margin = st.range(1) * 1e-3, amp = st.range(2) * 1e-3;
+  TriangleBvh bvh(m);
+  if (margin > 0) bvh.setMotionMargin(m, margin);
+  const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
+  std::vector<double> shape(rest.size());
+  for (std::size_t v = 0; v < rest.size(); ++v)
+    shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
+  const Segments segs = blades(1024);
+  std::vector<ld::collision::SurfaceHit> out;
+  std::size_t k = 0, reanchored = 0, hits = 0;
+  double lastW = 0.0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    const double w = amp * std::sin(2.0 * 3.14159 * static_cast<double>(k) / 200.0) - 1e-3 * static_cast<double>(k % 1000);
+    for (std::size_t v = 0; v < rest.size(); ++v) m.positions()[v].z() = rest[v].z() + w * shape[v];
+    st.ResumeTiming();
+    // range(3) = 1: with the physics' bound on the step's moves (Dynamics::maxMove).
+    const double bound = st.range(3) ? std::abs(w - lastW) : std::numeric_limits<double>::infinity();
+    lastW = w;
+    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), rest.size());
+    for (int q = 0; q < 4; ++q) {
+      const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
+      bvh.intersectSegment(m, s.first, s.second, out);
+      hits += out.size();
+    }
+    ++k;
+  }
+  const auto n = static_cast<double>(st.iterations());
+  st.counters["triangles"] = static_cast<double>(m.nFaces());
+  st.counters["reanchored"] = static_cast<double>(reanchored) / n;
+  st.counters["passes"] = margin > 0 ? static_cast<double>(bvh.motionPasses()) / n : 1.0;
+  st.counters["hits"] = static_cast<double>(hits) / n;
+}
+BENCHMARK(BM_BvhMovingTissue)
+    ->Args({50, 0, 100, 0})
+    ->Args({50, 250, 100, 0})
+    ->Args({50, 250, 100, 1})
+    ->Args({158, 0, 100, 0})
+    ->Args({158, 250, 100, 0})
+    ->Args({158, 250, 100, 1})
+    ->Args({158, 100, 100, 1})
+    ->Args({158, 500, 100, 1})
+    ->ArgNames({"cells", "margin_um", "amp_um", "bound"})
+    ->Unit(benchmark::kMicrosecond);
 
 // Local refit after a region of `range(0)` vertices moved (the active region).
 void BM_BvhRefitLocal100k(benchmark::State& st) {
@@ -427,10 +494,12 @@ double threadSeconds() {
 void BM_LoopSample(benchmark::State& st) {
   const int cells = static_cast<int>(st.range(0));
   const int radius = static_cast<int>(st.range(1));
+  const double margin = st.range(2) * 1e-3;  // fat boxes [mm] (full physics only)
   LoopScene& sc = loopScene(cells, radius);
   SurfaceMesh& m = sc.mesh;
   ld::collision::CollisionWorld world;
   const auto id = world.add(m);
+  if (margin > 0) world.setMotionMargin(id, margin);
   std::size_t k = 1, regionVertices = 0;
   double refitS = 0, queryS = 0, sweepS = 0;
   std::size_t hits = 0;
@@ -448,6 +517,8 @@ void BM_LoopSample(benchmark::State& st) {
     const double t0 = threadSeconds();
     if (radius > 0) {
       world.refitVertices(id, std::span<const std::uint32_t>(sc.regions[i]));
+    } else if (margin > 0) {
+      world.refitMoved(id);
     } else {
       world.refit();
     }
@@ -477,13 +548,15 @@ void BM_LoopSample(benchmark::State& st) {
   st.counters["hits"] = static_cast<double>(hits) / n;
 }
 BENCHMARK(BM_LoopSample)
-    ->Args({158, 0})
-    ->Args({158, 5})
-    ->Args({158, 10})
-    ->Args({500, 0})
-    ->Args({500, 5})
-    ->Args({500, 10})
-    ->ArgNames({"cells", "region_mm"})
+    ->Args({158, 0, 0})
+    ->Args({158, 0, 250})
+    ->Args({158, 5, 0})
+    ->Args({158, 10, 0})
+    ->Args({500, 0, 0})
+    ->Args({500, 0, 250})
+    ->Args({500, 5, 0})
+    ->Args({500, 10, 0})
+    ->ArgNames({"cells", "region_mm", "margin_um"})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 

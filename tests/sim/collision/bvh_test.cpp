@@ -1,5 +1,7 @@
 #include "sim/collision/bvh.h"
 
+#include <algorithm>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -124,6 +126,119 @@ TEST(TriangleBvh, RefitFollowsMovingVertices) {
   EXPECT_EQ(hits[0].vertex, v);
 }
 
+// Fat boxes (setMotionMargin): every vertex moves a little each step, refitMoved()
+// re-anchors only what left its anchor's reach. Moves below the margin leave the
+// boxes alone, moves above it re-anchor; in both cases every box still contains its
+// faces (check) and every query equals brute force, including segments aimed at the
+// faces that moved (SegmentSource aims at features at their current positions).
+TEST(TriangleBvh, FatBoxesStayExactUnderSmallAndLargeMoves) {
+  std::mt19937_64 rng(5);
+  SegmentSource src(6);
+  std::normal_distribution<double> N(0.0, 1.0);
+  for (int meshKind = 0; meshKind < 2; ++meshKind) {
+    SurfaceMesh m = meshKind == 0 ? testing::slab(8, 1.0, 2.0) : testing::slab(34, 1.0, 2.0);  // SAH / Morton build
+    TriangleBvh bvh(m);
+    const double margin = 0.2;
+    bvh.setMotionMargin(m, margin);
+    ASSERT_EQ(bvh.check(m), "");
+    std::size_t reanchoredSmall = 0, reanchoredLarge = 0;
+    for (int step = 0; step < testing::scaled(60); ++step) {
+      const bool large = step % 5 == 4;
+      if (large) {
+        // A patch jumps by more than the margin; the rest does not move.
+        const Vector3d c = m.position(mesh::Vertex(static_cast<std::uint32_t>(rng() % m.verticesSize())));
+        for (Vector3d& p : m.positions())
+          if ((p - c).norm() < 2.5) p += Vector3d(N(rng), N(rng), N(rng)).normalized() * (1.5 * margin);
+      } else {
+        // Everything drifts by a few percent of the margin per coordinate.
+        for (Vector3d& p : m.positions()) p += 0.01 * Vector3d(N(rng), N(rng), N(rng));
+      }
+      const std::size_t n = bvh.refitMoved(m);
+      (large ? reanchoredLarge : reanchoredSmall) += n;
+      ASSERT_EQ(bvh.check(m), "") << "step " << step;
+      expectBvhMatchesBruteForce(m, bvh, src, 10);
+      if (::testing::Test::HasFatalFailure()) return;
+      // Every face of the moved surface is found by a segment through its centroid.
+      for (int k = 0; k < 20; ++k) {
+        const Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+        const auto& vs = m.vertices(f);
+        const Vector3d p0 = m.position(vs[0]), p1 = m.position(vs[1]), p2 = m.position(vs[2]);
+        const Vector3d c = (p0 + p1 + p2) / 3.0, nrm = (p1 - p0).cross(p2 - p0).normalized();
+        std::vector<SurfaceHit> hits;
+        bvh.intersectSegment(m, c + 0.05 * nrm, c - 0.05 * nrm, hits);
+        const bool found = std::any_of(hits.begin(), hits.end(), [&](const SurfaceHit& h) { return h.face == f; });
+        ASSERT_EQ(found, !intersectSegment(m, c + 0.05 * nrm, c - 0.05 * nrm).empty()) << "face " << f;
+        ASSERT_FALSE(hits.empty()) << "the segment through face " << f << "'s centroid found nothing";
+      }
+    }
+    // Small drifts accumulate: some vertices do cross the margin over the run, but far
+    // fewer than a refit per step would touch; the jumps always re-anchor.
+    EXPECT_LT(reanchoredSmall, m.nVertices() * static_cast<std::size_t>(testing::scaled(60)) / 10);
+    EXPECT_GT(reanchoredLarge, 0u);
+  }
+}
+
+// With a caller's bound on the moves (physics::Dynamics::maxMove) the pass is skipped
+// while the moves fit in the slack the last pass left; a bound that is exact (the
+// largest move itself) keeps every query exact. Then the same under topology edits
+// (sync) and vertices moved by a caller between passes (refitVertices).
+TEST(TriangleBvh, FatBoxesWithAMoveBoundSkipPassesAndStayExact) {
+  std::mt19937_64 rng(8);
+  SegmentSource src(9);
+  std::uniform_real_distribution<double> U(-1.0, 1.0), S(0.05, 0.95);
+  SurfaceMesh m = testing::slab(12, 1.0, 2.0);
+  TriangleBvh bvh(m);
+  bvh.setMotionMargin(m, 0.1);
+  int skipped = 0, passes = 0;
+  for (int step = 0; step < testing::scaled(200); ++step) {
+    // A wave: each step moves every vertex by up to `amp` per coordinate.
+    const double amp = step % 50 < 40 ? 0.004 : 0.03;
+    double largest = 0.0;
+    for (Vector3d& p : m.positions()) {
+      const Vector3d d(amp * U(rng), amp * U(rng), amp * U(rng));
+      p += d;
+      largest = std::max(largest, d.cwiseAbs().maxCoeff());
+    }
+    if (step % 7 == 3) {  // the cutter edits between steps: split a face
+      const Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+      if (m.isValid(f)) {
+        double u = S(rng), v = S(rng);
+        if (u + v > 1) u = 1 - u, v = 1 - v;
+        const auto& vs = m.vertices(f);
+        m.splitFace(f, m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
+                           v * (m.position(vs[2]) - m.position(vs[0])));
+      }
+      bvh.sync(m);
+    }
+    if (step % 11 == 5) {  // and slides a vertex by more than the margin (told by name)
+      const mesh::Vertex v(static_cast<std::uint32_t>(rng() % m.verticesSize()));
+      m.position(v) += Vector3d(0.0, 0.0, 0.25);
+      const std::vector<mesh::Vertex> moved = {v};
+      bvh.refitVertices(m, moved);
+    }
+    const std::size_t n = bvh.refitMoved(m, largest);
+    // A skipped pass returns 0 without reading; count by whether anything could move.
+    (n == 0 ? skipped : passes) += 1;
+    ASSERT_EQ(bvh.check(m), "") << "step " << step;
+    if (step % 4 == 0) expectBvhMatchesBruteForce(m, bvh, src, 10);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  EXPECT_GT(skipped, testing::scaled(200) / 2) << "small moves within the slack need no pass";
+  EXPECT_GT(passes, 0);
+}
+
+TEST(TriangleBvh, MotionMarginMisuseThrows) {
+  SurfaceMesh m = testing::grid(4);
+  TriangleBvh bvh(m);
+  EXPECT_THROW(bvh.setMotionMargin(m, -1.0), CollisionError);
+  EXPECT_THROW(bvh.setMotionMargin(m, std::numeric_limits<double>::quiet_NaN()), CollisionError);
+  bvh.setMotionMargin(m, 0.5);
+  bvh.setMotionMargin(m, 0.0);  // back to tight boxes: refitMoved is a refit
+  m.position(mesh::Vertex(0u)).z() += 3.0;
+  EXPECT_EQ(bvh.refitMoved(m), m.nVertices());
+  EXPECT_EQ(bvh.check(m), "");
+}
+
 // The property test: random local edits (split edge, split face, delete face, move
 // vertices), the mesh validated and the tree synced after each, queries compared
 // with brute force throughout.
@@ -132,12 +247,16 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
   SegmentSource src(11);
   std::uniform_real_distribution<double> U(0.05, 0.95);
   // Kind 3 has more than 4096 faces: the Morton-order build (smaller ones use binned SAH).
-  for (int meshKind = 0; meshKind < 4; ++meshKind) {
-    SurfaceMesh m = meshKind == 0   ? testing::icosphere(2)
-                    : meshKind == 1 ? testing::slab(6, 1.0, 2.0)
-                    : meshKind == 2 ? testing::grid(8)
-                                    : testing::slab(34, 1.0, 2.0);
+  // Kinds 4 and 5 repeat 1 and 2 with fat boxes (setMotionMargin): moved vertices then
+  // go to refitMoved() half of the time (the moves are about as large as the margin).
+  for (int meshKind = 0; meshKind < 6; ++meshKind) {
+    SurfaceMesh m = meshKind == 0                      ? testing::icosphere(2)
+                    : meshKind == 1 || meshKind == 4 ? testing::slab(6, 1.0, 2.0)
+                    : meshKind == 2 || meshKind == 5 ? testing::grid(8)
+                                                     : testing::slab(34, 1.0, 2.0);
+    const bool fat = meshKind >= 4;
     TriangleBvh bvh(m);
+    if (fat) bvh.setMotionMargin(m, 0.05);
     int local = 0, rebuilt = 0;
     for (int step = 0; step < testing::scaled(300); ++step) {
       const int op = static_cast<int>(rng() % 10);
@@ -155,7 +274,7 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
         const Vector3d p = m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
                            v * (m.position(vs[2]) - m.position(vs[0]));
         m.splitFace(f, p);
-      } else if (op == 8 && meshKind == 2) {  // delete a face (open mesh only: keep the others closed)
+      } else if (op == 8 && (meshKind == 2 || meshKind == 5)) {  // delete a face (open mesh only: keep the others closed)
         Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
         if (!m.isValid(f)) continue;
         m.deleteFace(f);
@@ -178,7 +297,10 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
           m.position(v) += Vector3d(N(rng), N(rng), N(rng));
           moved.push_back(v);
         }
-        bvh.refitVertices(m, moved);
+        if (fat && rng() % 2 == 0)
+          bvh.refitMoved(m);
+        else
+          bvh.refitVertices(m, moved);
       }
       ASSERT_TRUE(m.validate().ok()) << m.validate().message();
       if (rng() % 3 == 0) continue;  // sometimes several edits between two syncs

@@ -2,6 +2,7 @@
 // the kept mesh's deferred compaction, and collision refits limited to the vertices
 // that moved (CutEngine::verticesMoved, physics::movedVertices).
 #include <algorithm>
+#include <array>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -226,6 +227,61 @@ TEST(CutterMotion, ActiveRegionPhysicsNamesTheMovedVertices) {
       test::scalpel(Vec3(at.x() + 3, at.y() + 0.05, 0.5 * (at.z() + z0)), Vec3(1, 0, 0), Vec3(0, 0, 1));
   expectContactsAsBruteForce(e, id, pose);
   EXPECT_EQ(e.stats().fullRefits, 0);
+}
+
+// Fat collision boxes (CutParams::collisionMargin) change only the pruning: with the
+// tissue moving under physics every sample (a pre-stretched slab that gapes as it is
+// cut), cuts with them end with exactly the mesh that full refits give, with or
+// without the physics' bound on the moves, and no full refit is done.
+TEST(CutterMotion, FatCollisionBoxesCutExactlyAsFullRefits) {
+  struct Out {
+    std::vector<Eigen::Vector3d> x;
+    std::vector<std::array<std::uint32_t, 3>> faces;
+    CutStats stats;
+  };
+  auto run = [](double margin, bool bound) {
+    physics::TissueParams tissue;
+    CutParams params;
+    params.tissue = tissue;
+    params.collisionMargin = margin;
+    mesh::SurfaceMesh m = test::makeBox(Vec3(0, 0, 0), Vec3(20, 20, 2), {16, 16, 2});
+    physics::attachTissueProperties(m, tissue);
+    CutEngine e(params);
+    const int id = e.addObject(std::move(m));
+    physics::Params pp;
+    physics::Dynamics dyn;
+    auto stepPhysics = [&](CutEngine& eng) {
+      physics::step(pp, dyn, eng.meshToMove(id), 1e-3);
+      if (bound)
+        eng.verticesMovedWithin(id, dyn.maxMove);
+      else
+        eng.verticesMoved(id);
+    };
+    test::stroke(e, Vec3(5, 10.3, -1), Vec3(15, 10.3, -1), Vec3(0, 0, -1), 50.0, 1000.0, stepPhysics);
+    for (int i = 0; i < 100; ++i) stepPhysics(e);  // the cut gapes
+    test::stroke(e, Vec3(10.2, 4, -1), Vec3(10.2, 16, -1), Vec3(0, 0, -1), 50.0, 1000.0, stepPhysics);
+    Out o;
+    for (const auto& obj : e.objects()) {
+      o.x.insert(o.x.end(), obj.mesh.positions().begin(), obj.mesh.positions().end());
+      for (mesh::Face f : obj.mesh.faces()) {
+        const auto& vs = obj.mesh.vertices(f);
+        o.faces.push_back({vs[0].idx(), vs[1].idx(), vs[2].idx()});
+      }
+    }
+    o.stats = e.stats();
+    return o;
+  };
+  const Out full = run(0.0, false);
+  ASSERT_GT(full.stats.trianglesCut, 10);
+  EXPECT_GT(full.stats.fullRefits, 100);
+  for (const bool bound : {false, true}) {
+    const Out fat = run(0.25, bound);
+    EXPECT_EQ(fat.stats.fullRefits, 0) << "bound " << bound;
+    EXPECT_GT(fat.stats.marginRefits, 100) << "bound " << bound;
+    EXPECT_EQ(fat.stats.trianglesCut, full.stats.trianglesCut) << "bound " << bound;
+    EXPECT_EQ(fat.faces, full.faces) << "bound " << bound;
+    EXPECT_EQ(fat.x, full.x) << "bound " << bound;
+  }
 }
 
 }  // namespace

@@ -1,5 +1,8 @@
 // Stepping a mesh owned elsewhere (Dynamics + mesh) gives exactly what a State gives,
 // and picks up topology edits made between steps.
+#include <cmath>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "sim/physics/mass_spring.h"
@@ -88,6 +91,44 @@ TEST(Dynamics, SettleInPlace) {
   EXPECT_TRUE(b.converged);
   EXPECT_EQ(a.steps, b.steps);
   EXPECT_EQ(owned.positions(), s.mesh.positions());
+}
+
+// Dynamics::maxMove bounds every coordinate's move of the step (what a collision
+// tree with fat boxes skips its pass on), also with two threads and on the first
+// steps of a strongly pushed grid; unknown (+inf) where the step has no such sum.
+TEST(Dynamics, MaxMoveBoundsTheStepsLargestMove) {
+  for (int threads : {1, 2}) {
+    Params p;
+    p.threads = threads;
+    State s = pushedGrid(p);
+    double largest = 0.0;
+    for (int i = 0; i < 200; ++i) {
+      const std::vector<Vec3> before = s.mesh.positions();
+      const StepInfo info = step(p, s, 1e-3);
+      double moved = 0.0;
+      for (std::size_t v = 0; v < before.size(); ++v)
+        moved = std::max(moved, (s.mesh.positions()[v] - before[v]).cwiseAbs().maxCoeff());
+      largest = std::max(largest, moved);
+      if (info.accepted && info.substeps == 1) {
+        ASSERT_TRUE(std::isfinite(s.maxMove)) << "step " << i;
+        ASSERT_LE(moved, s.maxMove) << "step " << i;
+        ASSERT_LE(s.maxMove, 1.001 * moved + 1e-12) << "a bound, but not a loose one";
+      }
+    }
+    EXPECT_GT(largest, 1e-3) << "the scene should move";
+  }
+  for (Method method : {Method::Verlet, Method::ImplicitEuler}) {
+    Params p;
+    p.method = method;
+    State s = pushedGrid(p);
+    step(p, s, 1e-3);
+    EXPECT_EQ(s.maxMove, std::numeric_limits<double>::infinity()) << methodName(method);
+  }
+  Params off;
+  off.stability.enabled = false;
+  State s = pushedGrid(off);
+  step(off, s, 1e-3);
+  EXPECT_EQ(s.maxMove, std::numeric_limits<double>::infinity()) << "the monitor's sums are off";
 }
 
 }  // namespace

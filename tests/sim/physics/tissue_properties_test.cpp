@@ -1,5 +1,8 @@
 #include "sim/physics/tissue_properties.h"
 
+#include <cmath>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "sim/physics/physics_error.h"
@@ -101,6 +104,41 @@ TEST(TissueProperties, HooksNeedTheProperties) {
   auto m = makeGrid(1, 1, 1.0);
   const auto e = *m.edges().begin();
   EXPECT_THROW(initEdge(m, e, TissueParams{}), MissingPropertyError);
+}
+
+// initEdgesAround (the cutter's batch hook) gives bit for bit what initEdge on every
+// edge of a vertex followed by redistributeMass of it, vertex by vertex, gives: with
+// the mass floor on (a mass reads its springs), after homes moved (every spring around
+// them stale), with neighbouring vertices in the list and an invalid one among them.
+TEST(TissueProperties, BatchEdgeHookEqualsPerVertexHooks) {
+  auto base = makeGrid(6, 6, 2.0);
+  TissueParams p;
+  p.massFloorDt = 2e-3;  // heavy floor: the masses depend on k
+  attachTissueProperties(base, p);
+  {
+    auto home = base.getVertexProperty<Vec3>(kHomeProp);
+    for (auto v : base.vertices()) home[v] += Vec3(0.1 * std::sin(v.idx()), 0.2 * std::cos(3.0 * v.idx()), 0.0);
+  }
+  const std::vector<mesh::Vertex> list = {mesh::Vertex(8u), mesh::Vertex(9u), mesh::Vertex(16u), mesh::Vertex(),
+                                          mesh::Vertex(9u), mesh::Vertex(30u)};
+  auto perVertex = base, batch = base;
+  for (mesh::Vertex v : list) {
+    if (!perVertex.isValid(v)) continue;
+    for (mesh::Edge e : perVertex.edges(v)) initEdge(perVertex, e, p);
+    const mesh::Vertex one[1] = {v};
+    redistributeMass(perVertex, one, p);
+  }
+  initEdgesAround(batch, list, p);
+  auto rest = [](const mesh::SurfaceMesh& m) { return m.getEdgeProperty<double>(kRestProp).vector(); };
+  auto k = [](const mesh::SurfaceMesh& m) { return m.getEdgeProperty<double>(kStiffnessProp).vector(); };
+  auto mass = [](const mesh::SurfaceMesh& m) { return m.getVertexProperty<double>(kMassProp).vector(); };
+  EXPECT_EQ(rest(batch), rest(perVertex));
+  EXPECT_EQ(k(batch), k(perVertex));
+  EXPECT_EQ(mass(batch), mass(perVertex));
+  EXPECT_NE(rest(batch), rest(base)) << "the springs around the listed vertices were stale";
+  EXPECT_NE(mass(batch), mass(base));
+  mesh::SurfaceMesh bare = makeGrid(2, 2, 1.0);
+  EXPECT_THROW(initEdgesAround(bare, list, p), MissingPropertyError);
 }
 
 }  // namespace
