@@ -301,6 +301,13 @@ struct CutEngine::Impl {
     physics::initEdgesAround(meshOf(obj), std::span<const Vertex>(vs.begin(), vs.size()), p.tissue);
   }
 
+  // touch(obj, {v}) right after a physics::initVertexOnEdge/InFace hook, which has set
+  // v's springs and its ring's masses (v's own last): the same values, computed once.
+  void touchInitialised(int obj, Vertex v) {
+    if (!tissue(obj)) return touch(obj, {v});
+    if (v.isValid()) dirty.emplace_back(obj, v);
+  }
+
   // touch(obj, {x}) for each x, in one go: the tissue hooks' results are the same (an
   // edge's spring reads only the homes, a mass only its vertex's springs and areas).
   void touchEach(int obj, std::span<const Vertex> vs) {
@@ -521,7 +528,7 @@ struct CutEngine::Impl {
     }
     const Vertex v = m.splitEdge(e, q);
     if (tissue(obj)) physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
-    touch(obj, {v});
+    touchInitialised(obj, v);
     traceThin(obj, {v}, hBefore < 0.25 * p.snapDistance ? "splitEdge/inherited" : "splitEdge/new");
     return v;
   }
@@ -600,7 +607,7 @@ struct CutEngine::Impl {
     const Vec3 bary = barycentric(m, f, P);
     const Vertex nv = m.splitFace(f, P);
     if (tissue(obj)) physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
-    touch(obj, {nv});
+    touchInitialised(obj, nv);
     traceThin(obj, {nv}, "splitFace");
     return nv;
   }
