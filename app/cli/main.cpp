@@ -64,7 +64,8 @@ namespace {
 const char* kUsage =
     "usage: lapdissect-cli GROUP ...\n"
     "  mesh info FILE | mesh convert IN OUT\n"
-    "  cut --mesh FILE --trajectory CSV [--physics off|on [--active-region off|on] [--collision-margin MM]] [--out FILE]\n"
+    "  cut --mesh FILE --trajectory CSV [--physics off|on [--active-region off|on] [--collision-margin MM]]"
+    " [--out FILE]\n"
     "  sim bench --scene NAME|FILE --method NAME --dt S --duration S | sim chart --out DIR\n"
     "  metrics deviation --drawn CSV --cut CSV\n"
     "  task validate FILE | task run --task JSON --trajectory CSV [--physics still|on|off] [--db URL --trainee NAME]\n"

@@ -1,9 +1,9 @@
 // Active-region mode (the thesis's local deformation, with sleeping): only awake
 // vertices are integrated; a vertex wakes when an external force acts on it (contact)
 // or a moving neighbour pulls it, and falls asleep after a run of quiet steps.
-#include <limits>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "sim/physics/mass_spring.h"
 

@@ -1163,8 +1163,8 @@ Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View
     if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
     // x1 = x0 + dt v1 per coordinate, and maxComp2 is the largest squared component of
     // v1 (taken with the monitor's sums): the step's largest move, with room for roundings.
-    const double move = o.enabled ? dt * std::sqrt(s.maxComp2) * (1.0 + 1e-12)
-                                  : std::numeric_limits<double>::infinity();
+    const double move =
+        o.enabled ? dt * std::sqrt(s.maxComp2) * (1.0 + 1e-12) : std::numeric_limits<double>::infinity();
     return {checkSymplectic(o, w, x1, v1, s, budget, dt), {s.spring0 + s.home0, s.ke0}, move};
   }
   const E0 e0 = integrate(m, p, w, c, x0, v0, x1, v1, dt);

@@ -24,7 +24,6 @@ mesh::VertexProperty<T> requireV(const SurfaceMesh& m, const char* name) {
   return p;
 }
 
-
 double homeArea(const SurfaceMesh& m, const mesh::VertexProperty<Vec3>& home, Face f) {
   const auto& vs = m.vertices(f);
   return 0.5 * (home[vs[1]] - home[vs[0]]).cross(home[vs[2]] - home[vs[0]]).norm();

@@ -294,7 +294,8 @@ void BM_BvhMovingTissue(benchmark::State& st) {
   double lastW = 0.0;
   for (auto _ : st) {
     st.PauseTiming();
-    const double w = amp * std::sin(2.0 * 3.14159 * static_cast<double>(k) / 200.0) - 1e-3 * static_cast<double>(k % 1000);
+    const double w =
+        amp * std::sin(2.0 * 3.14159 * static_cast<double>(k) / 200.0) - 1e-3 * static_cast<double>(k % 1000);
     for (std::size_t v = 0; v < rest.size(); ++v) m.positions()[v].z() = rest[v].z() + w * shape[v];
     st.ResumeTiming();
     // range(3) = 1: with the physics' bound on the step's moves (Dynamics::maxMove).

@@ -250,7 +250,7 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
   // Kinds 4 and 5 repeat 1 and 2 with fat boxes (setMotionMargin): moved vertices then
   // go to refitMoved() half of the time (the moves are about as large as the margin).
   for (int meshKind = 0; meshKind < 6; ++meshKind) {
-    SurfaceMesh m = meshKind == 0                      ? testing::icosphere(2)
+    SurfaceMesh m = meshKind == 0                    ? testing::icosphere(2)
                     : meshKind == 1 || meshKind == 4 ? testing::slab(6, 1.0, 2.0)
                     : meshKind == 2 || meshKind == 5 ? testing::grid(8)
                                                      : testing::slab(34, 1.0, 2.0);
@@ -274,7 +274,8 @@ TEST(TriangleBvh, StaysEqualToBruteForceUnderRandomEdits) {
         const Vector3d p = m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
                            v * (m.position(vs[2]) - m.position(vs[0]));
         m.splitFace(f, p);
-      } else if (op == 8 && (meshKind == 2 || meshKind == 5)) {  // delete a face (open mesh only: keep the others closed)
+      } else if (op == 8 && (meshKind == 2 || meshKind == 5)) {
+        // Delete a face (open meshes only: the others stay closed).
         Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
         if (!m.isValid(f)) continue;
         m.deleteFace(f);

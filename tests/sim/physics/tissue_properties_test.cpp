@@ -119,8 +119,8 @@ TEST(TissueProperties, BatchEdgeHookEqualsPerVertexHooks) {
     auto home = base.getVertexProperty<Vec3>(kHomeProp);
     for (auto v : base.vertices()) home[v] += Vec3(0.1 * std::sin(v.idx()), 0.2 * std::cos(3.0 * v.idx()), 0.0);
   }
-  const std::vector<mesh::Vertex> list = {mesh::Vertex(8u), mesh::Vertex(9u), mesh::Vertex(16u), mesh::Vertex(),
-                                          mesh::Vertex(9u), mesh::Vertex(30u)};
+  const std::vector<mesh::Vertex> list = {mesh::Vertex(8u), mesh::Vertex(9u), mesh::Vertex(16u),
+                                          mesh::Vertex(),   mesh::Vertex(9u), mesh::Vertex(30u)};
   auto perVertex = base, batch = base;
   for (mesh::Vertex v : list) {
     if (!perVertex.isValid(v)) continue;
