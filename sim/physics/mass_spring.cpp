@@ -1268,13 +1268,16 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
   double budget = state.energyBudget;
   const char* reason = "";
   bool ok = false;
+  // The move bound is known only for a first attempt that passed in one step.
   double maxMove = std::numeric_limits<double>::infinity();
   if (sticky == 1) {
     const Outcome out = advance(m, params, params.stability, w, c, mesh.positions().data(), velocities(mesh).data(),
                                 c.xb.data(), c.vb.data(), dt, budget);
     ok = out.chk.ok;
-    if (ok) maxMove = out.maxMove;
-    if (ok) budget = nextBudget(params.stability, budget, out.chk, out.e0, dt);
+    if (ok) {
+      maxMove = out.maxMove;
+      budget = nextBudget(params.stability, budget, out.chk, out.e0, dt);
+    }
     reason = out.chk.reason;
   } else {
     ok = attemptSubsteps(m, params, w, state, mesh, dt, sticky, &budget, &reason);
@@ -1295,7 +1298,6 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
       state.stickyLeft = params.stability.stickySteps;
     }
   }
-  if (!ok) maxMove = std::numeric_limits<double>::infinity();
   if (!ok) {
     ++state.stability.implicitFallbacks;
     info.implicitFallback = true;
@@ -1316,7 +1318,7 @@ StepInfo step(const Params& params, Dynamics& state, mesh::SurfaceMesh& mesh, do
   commit(state, mesh);
   state.time += dt;
   ++state.steps;
-  state.maxMove = info.accepted ? maxMove : std::numeric_limits<double>::infinity();
+  state.maxMove = maxMove;
   return info;
 }
 
