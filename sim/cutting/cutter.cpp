@@ -273,8 +273,7 @@ struct CutEngine::Impl {
       faceMarkAt.resize(nf, 0);
     }
     const int obj = objects[k].id;
-    auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
-    ThinCache& c = it != thinCaches.end() ? *it : thinCaches.emplace_back();
+    ThinCache& c = thinCacheEntry(obj);
     if (c.obj != obj) {
       c.obj = obj;
       c.layout = ~std::uint64_t{0};  // no mesh has it: thinCacheFor starts afresh
@@ -3224,12 +3223,16 @@ struct CutEngine::Impl {
     std::size_t from, to;
   };
   std::vector<KeptShape> keptShapes;
+  // The object's entry in thinCaches, or a new one (obj -1) when it has none.
+  ThinCache& thinCacheEntry(int obj) {
+    auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
+    return it != thinCaches.end() ? *it : thinCaches.emplace_back();
+  }
   ThinCache& thinCacheFor(int obj) {
     const SurfaceMesh& m = meshOf(obj);
     std::erase_if(thinCaches, [&](const ThinCache& c) { return indexOf(c.obj) < 0; });
     std::erase_if(keptShapes, [&](const KeptShape& k) { return indexOf(k.obj) < 0; });
-    auto it = std::find_if(thinCaches.begin(), thinCaches.end(), [&](const ThinCache& c) { return c.obj == obj; });
-    ThinCache& c = it != thinCaches.end() ? *it : thinCaches.emplace_back();
+    ThinCache& c = thinCacheEntry(obj);
     const auto journal = m.editedFaces();
     if (c.obj != obj || c.layout != m.layoutVersion() || c.motion != motionCount || c.journalF > journal.size()) {
       c.obj = obj;
