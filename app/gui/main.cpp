@@ -377,6 +377,7 @@ int main(int argc, char** argv) {
       if (session->simTime() < startTime + simTime) return;
       poll.stop();
       window.pollPhysics();
+      window.showPhysicsStatus();  // the status line as of this frame, for the screenshot
       if (drag) {  // frame the moved pieces too
         window.view()->fitToView();
         window.view()->camera().zoom(static_cast<float>(zoom));

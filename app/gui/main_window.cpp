@@ -128,6 +128,7 @@ void MainWindow::restartPhysics() {
   shownIds_.assign(1, 0);
   frameTimer_->stop();
   physicsLabel_->setText(physicsAvailable() ? tr("Physics: off") : QString());
+  statusClock_.invalidate();  // a new session shows its status at the first poll
 #ifdef LD_GUI_HAVE_PHYSICS
   if (!physicsEnabled_ || !original_) {
     if (original_) view_->setMesh(renderMeshFrom(*original_), false);  // back to the loaded shape
@@ -206,6 +207,7 @@ void MainWindow::syncPhysics() {
   if (physics_) physics_->sync();
 #endif
   pollPhysics();
+  showPhysicsStatus();
 }
 
 std::size_t MainWindow::objectCount() const { return view_->objects().size(); }
@@ -235,7 +237,17 @@ void MainWindow::pollPhysics() {
       for (std::size_t i = 0; i < frame.objects.size(); ++i) view_->updatePositions(i, frame.objects[i].mesh.positions);
     }
   }
+  // The status line's figures change every step; four times a second is readable and
+  // keeps an idle window from repainting (and recompositing its GL view) at 60 Hz.
+  if (topologyChanged || !statusClock_.isValid() || statusClock_.elapsed() >= 250) showPhysicsStatus();
+#endif
+}
+
+void MainWindow::showPhysicsStatus() {
+#ifdef LD_GUI_HAVE_PHYSICS
+  if (!physics_) return;
   physicsLabel_->setText(physics_->status());
+  statusClock_.restart();
 #endif
 }
 

@@ -2,6 +2,7 @@
 // The main window: the 3-D view, File and View menus, and a status bar with the
 // model's vertex and triangle counts. Models load on a worker thread behind a
 // progress dialog so a large file does not freeze the window.
+#include <QElapsedTimer>
 #include <QMainWindow>
 #include <QString>
 
@@ -56,8 +57,11 @@ class MainWindow : public QMainWindow {
   [[nodiscard]] static bool physicsAvailable();
   void setPhysicsEnabled(bool on);
   [[nodiscard]] PhysicsSession* physics() const { return physics_.get(); }
-  // Pulls the latest snapshot into the view (the frame timer calls it).
+  // Pulls the latest snapshot into the view (the frame timer calls it); a tissue at rest
+  // publishes none, so the view is not redrawn. The status line follows at 4 Hz.
   void pollPhysics();
+  // Sets the physics status line now.
+  void showPhysicsStatus();
   // One straight scalpel stroke across the top of the tissue (scripted cutting):
   // from (x0, y0) to (x1, y1) at `depth` mm below the highest point.
   bool cutAcrossTop(double x0, double y0, double x1, double y1, double depth);
@@ -111,6 +115,7 @@ class MainWindow : public QMainWindow {
   QAction* holdAction_ = nullptr;
   bool holdWhileCutting_ = true;
   QLabel* physicsLabel_ = nullptr;
+  QElapsedTimer statusClock_;  // when the physics status line was last set
   QTimer* frameTimer_ = nullptr;
 #ifdef LD_GUI_HAVE_SIM_IO
   std::optional<mesh::SurfaceMesh> original_;  // the model as loaded, to restart from

@@ -157,7 +157,7 @@ void PhysicsSession::run() {
     stepAll(dt);
     noteStep(std::chrono::duration<double, std::micro>(Clock::now() - t0).count(), window);
     if (Clock::now() - lastPublish >= publishPeriod) {
-      publish();
+      publish(Publish::IfMoved);
       lastPublish = Clock::now();
     }
     const auto now = Clock::now();
@@ -225,7 +225,40 @@ PhysicsSession::Stats PhysicsSession::stats() const {
   return s;
 }
 
-void PhysicsSession::publish() {
+namespace {
+
+// A frame whose every vertex lies within this distance [mm] of the last one shown draws
+// the same pixels (a pixel is ~0.1 mm on the default slab): it is not published, so a
+// tissue at rest costs the GUI no repaint at all.
+constexpr float kStillDistance = 1e-4F;
+
+bool samePreview(const std::vector<PreviewLine>& a, const std::vector<PreviewLine>& b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const PreviewLine& x, const PreviewLine& y) {
+    return x.from == y.from && x.to == y.to && x.depth == y.depth;
+  });
+}
+
+// Same objects, same triangles, every vertex still (squared distance within the bound).
+bool looksTheSame(const SceneFrame& shown, const SceneFrame& next) {
+  if (shown.objects.size() != next.objects.size() || !samePreview(shown.preview, next.preview)) return false;
+  constexpr float still2 = kStillDistance * kStillDistance;
+  for (std::size_t i = 0; i < next.objects.size(); ++i) {
+    const SceneObject& a = shown.objects[i];
+    const SceneObject& b = next.objects[i];
+    if (a.id != b.id || a.topology != b.topology || a.mesh.positions.size() != b.mesh.positions.size()) return false;
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+      const Vec3f& p = a.mesh.positions[v];
+      const Vec3f& q = b.mesh.positions[v];
+      const float dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+      if (!(dx * dx + dy * dy + dz * dz <= still2)) return false;  // NaN counts as moved
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+void PhysicsSession::publish(Publish when) {
   SceneFrame next;
   bool finite = true;
   {
@@ -276,6 +309,10 @@ void PhysicsSession::publish() {
   next.preview = preview_;
   next.simTime = bodies_[0].dynamics.time;
   std::lock_guard lock(frameMutex_);
+  if (when == Publish::IfMoved && serial_ > 0 && looksTheSame(frame_, next)) {
+    frame_.simTime = next.simTime;  // the clock still runs; the picture stays
+    return;
+  }
   next.serial = ++serial_;
   frame_ = std::move(next);
 }

@@ -159,7 +159,10 @@ class PhysicsSession {
   void drain();
   void stepAll(double dt);
   void noteStep(double us, std::uint64_t window);  // sim thread
-  void publish();
+  // Always: a new frame for the next update(). IfMoved: only when a vertex moved more
+  // than a fraction of a pixel or the triangles or preview changed (the idle loop's).
+  enum class Publish { Always, IfMoved };
+  void publish(Publish when = Publish::Always);
   mesh::SurfaceMesh& meshOf(int id);
   void movedBy(const Body& b);
   void addBodies();

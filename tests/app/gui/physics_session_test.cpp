@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -168,6 +169,43 @@ TEST(PhysicsSession, AdvanceRunsStepsAtOnceAndStatsCountThem) {
   EXPECT_GE(st.maxStepUs, 0.0);
   EXPECT_EQ(st.nanFrames, 0u);
   EXPECT_TRUE(session.status().contains("NaN 0")) << session.status().toStdString();
+}
+
+// A tissue at rest publishes no frames (the idle window then draws nothing), while its
+// clock runs on; what it last showed is where the tissue is, to a fraction of a pixel;
+// a push brings the frames back.
+TEST(PhysicsSession, ATissueAtRestPublishesNoFramesUntilItMoves) {
+  PhysicsSession session(ld::physics::makeSlab(40.0, 30.0, 5.0, 2.5));
+  RenderMesh shown;
+  bool topo = false;
+  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
+  int quiet = 0;  // polls in a row with no new frame, 10 ms apart (the publisher runs at 60 Hz)
+  ASSERT_TRUE(waitFor([&] {
+    quiet = session.update(shown, topo) ? 0 : quiet + 1;
+    return quiet >= 30;
+  })) << "the settled slab kept publishing frames";
+  const double t0 = session.simTime();
+  ASSERT_TRUE(waitFor([&] { return session.simTime() > t0 + 0.05; })) << "the clock stopped with the frames";
+  EXPECT_FALSE(session.update(shown, topo));
+
+  session.sync();  // publishes whatever the state, moved or not
+  RenderMesh now;
+  ASSERT_TRUE(session.update(now, topo));
+  ASSERT_EQ(now.positions.size(), shown.positions.size());
+  float far = 0.0F;
+  for (std::size_t v = 0; v < now.positions.size(); ++v)
+    for (int a = 0; a < 3; ++a) far = std::max(far, std::abs(now.positions[v][a] - shown.positions[v][a]));
+  EXPECT_LE(far, 1e-4F) << "the last frame shown is not where the tissue is";
+
+  std::uint32_t top = 0;
+  for (std::uint32_t v = 0; v < now.positions.size(); ++v)
+    if (now.positions[v][2] > now.positions[top][2]) top = v;
+  const Eigen::Vector3d target(now.positions[top][0], now.positions[top][1], now.positions[top][2] - 3.0);
+  ASSERT_TRUE(waitFor([&] {
+    session.pushToward(top, target);
+    return session.update(now, topo);
+  })) << "a push did not bring the frames back";
+  session.release();
 }
 
 }  // namespace
