@@ -232,15 +232,9 @@ namespace {
 // tissue at rest costs the GUI no repaint at all.
 constexpr float kStillDistance = 1e-4F;
 
-bool samePreview(const std::vector<PreviewLine>& a, const std::vector<PreviewLine>& b) {
-  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const PreviewLine& x, const PreviewLine& y) {
-    return x.from == y.from && x.to == y.to && x.depth == y.depth;
-  });
-}
-
 // Same objects, same triangles, every vertex still (squared distance within the bound).
 bool looksTheSame(const SceneFrame& shown, const SceneFrame& next) {
-  if (shown.objects.size() != next.objects.size() || !samePreview(shown.preview, next.preview)) return false;
+  if (shown.objects.size() != next.objects.size() || shown.preview != next.preview) return false;
   constexpr float still2 = kStillDistance * kStillDistance;
   for (std::size_t i = 0; i < next.objects.size(); ++i) {
     const SceneObject& a = shown.objects[i];
@@ -309,7 +303,7 @@ void PhysicsSession::publish(Publish when) {
   next.preview = preview_;
   next.simTime = bodies_[0].dynamics.time;
   std::lock_guard lock(frameMutex_);
-  if (when == Publish::IfMoved && serial_ > 0 && looksTheSame(frame_, next)) {
+  if (when == Publish::IfMoved && looksTheSame(frame_, next)) {
     frame_.simTime = next.simTime;  // the clock still runs; the picture stays
     return;
   }

@@ -48,6 +48,7 @@ struct SceneObject {
 // Where the cut follows the blade inside a triangle (CutEngine's preview), in mm.
 struct PreviewLine {
   Vec3f from{}, to{}, depth{};
+  bool operator==(const PreviewLine&) const = default;
 };
 
 struct SceneFrame {
