@@ -154,6 +154,10 @@ struct Track {
   Vertex tip;
   std::vector<Vertex> chain;
   Vec3 tipDepth = Vec3::Zero();
+  // tipDepth in the tissue's rest frame (home of tip + the blade's offset from it when
+  // tip was made; NaN without homes): where the groove's bottom line is kept on moving
+  // tissue.
+  Vec3 tipRestDepth = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   // The blade's current point, inside a triangle next to tip (temporary).
   bool hasPending = false;
   Vec3 pending = Vec3::Zero();
@@ -868,6 +872,17 @@ struct CutEngine::Impl {
     return Vertex();
   }
 
+  // The blade's depth point under path vertex n in the rest frame: n's home plus the
+  // blade's offset from n now (as fillQuad places a new bottom vertex's home); NaN on an
+  // object without homes.
+  Vec3 restDepth(int obj, Vertex n, const Vec3& depth) {
+    if (tissue(obj)) {
+      SurfaceMesh& m = meshOf(obj);
+      if (auto home = m.getVertexProperty<Vec3>(physics::kHomeProp)) return home[n] + (depth - m.position(n));
+    }
+    return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+
   // ---- the cut front ---------------------------------------------------------------------
   // Vertices of the cut (path, copies, wall apexes) are shared by both layers of a cut-through.
   void mark(Track& tr, Vertex v) {
@@ -881,10 +896,12 @@ struct CutEngine::Impl {
   bool extend(Track& tr, Vertex N, const Vec3& depthN, bool lastStep = false) {
     SurfaceMesh& m = meshOf(tr.object);
     mark(tr, N);
+    const Vec3 restDepthN = restDepth(tr.object, N, depthN);
     if (!tr.tip.isValid()) {
       tr.tip = N;
       tr.first = N;
       tr.tipDepth = depthN;
+      tr.tipRestDepth = restDepthN;
       return true;
     }
     const Vertex v = tr.tip;
@@ -897,6 +914,7 @@ struct CutEngine::Impl {
       tr.chain.assign(chain);
       tr.tip = N;
       tr.tipDepth = depthN;
+      tr.tipRestDepth = restDepthN;
       stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
     };
     if (tr.tunnel) {
@@ -904,6 +922,7 @@ struct CutEngine::Impl {
       tr.chain.insert(tr.chain.begin(), v);
       tr.tip = N;
       tr.tipDepth = depthN;
+      tr.tipRestDepth = restDepthN;
       stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
       if (P && P->tunnel && tunnelReady(tr) && tunnelReady(*P)) openTunnel(tr, *P);
       return true;
@@ -999,9 +1018,16 @@ struct CutEngine::Impl {
         const bool isApex = apexProp[o] != 0;
         const double depth = (depthN - pN).norm();
         // The bottom's line here: through the blade's depth points at v and N (not the
-        // path vertices, which may be snapped off the sweep).
-        Vec3 along = depthN - tr.tipDepth;
-        if (!(along.norm() > 1e-3 * (pN - pv).norm())) along = pN - pv;
+        // path vertices, which may be snapped off the sweep). On tissue with homes it is
+        // kept in the rest frame: physics opens the cut and carries the bottom vertex
+        // off the world's line (0.27 mm on the expert's straight line, against a
+        // tolerance of 0.09), and every step would make a new one.
+        const auto home =
+            tissue(tr.object) ? m.getVertexProperty<Vec3>(physics::kHomeProp) : mesh::VertexProperty<Vec3>();
+        const bool rest = home && restDepthN.allFinite() && tr.tipRestDepth.allFinite();
+        const Vec3 fo = rest ? home[o] : po, fN = rest ? restDepthN : depthN;
+        Vec3 along = fN - (rest ? tr.tipRestDepth : tr.tipDepth);
+        if (!(along.norm() > 1e-3 * (pN - pv).norm())) along = rest ? Vec3(home[N] - home[v]) : Vec3(pN - pv);
         along = along.norm() > 0.0 ? Vec3(along.normalized()) : Vec3::Zero();
         const double reach =
             lastStep ? p.grooveSpacing : std::max({p.grooveSpacing, 4.0 * (pN - pv).norm(), kBottomReach * depth});
@@ -1009,14 +1035,17 @@ struct CutEngine::Impl {
         // Within reach of the blade's depth under N and on the bottom's line (a groove
         // getting deeper, or curving, gets bottom vertices more often).
         auto onLine = [&](const Vec3& q) {
-          const Vec3 d = q - depthN;
+          const Vec3 d = q - fN;
           return (d - d.dot(along) * along).norm() <= offTol;
         };
-        auto inReach = [&](const Vec3& q) { return (q - depthN).norm() < reach && onLine(q); };
-        const double reuseSin = isApex && fanOk && inReach(po) ? minAngleSin(pv, pN, po) : -1.0;
+        auto inReach = [&](const Vec3& q) { return (q - fN).norm() < reach && onLine(q); };
+        // o slid a fraction t of the way to the blade's depth (its home moves as far:
+        // slideBottom).
+        auto inReachAt = [&](double t) { return inReach(fo + t * (fN - fo)); };
+        const double reuseSin = isApex && fanOk && inReach(fo) ? minAngleSin(pv, pN, po) : -1.0;
         double slideSin = -1.0;
         if (isApex && reuseSin < sinFloor && !joinedNO)
-          slideSin = bestSlide(m, o, v, N, depthN, thr, inReach, onLine, slidePos);
+          slideSin = bestSlide(m, o, v, N, depthN, thr, inReachAt, onLine(fo), slidePos);
         if (reuseSin >= sinFloor) {
           fill = Fill::Fan;
         } else if (slideSin >= sinFloor) {
@@ -1055,6 +1084,7 @@ struct CutEngine::Impl {
         tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
         tr.tip = N;
         tr.tipDepth = depthN;
+        tr.tipRestDepth = restDepthN;
         return true;
       }
     }
@@ -1341,11 +1371,13 @@ struct CutEngine::Impl {
   // depth under the new path vertex N), so that the new wall triangle (v, N, o) and all
   // of o's triangles are best: largest smallest-angle sine of the new triangle and of
   // every triangle the move makes worse; none may flip or get thinner than min(thr, its
-  // height), and o may not come near another vertex. Returns that sine, -1 when o
-  // carries anything but groove walls or nothing fits.
-  template <class Reach, class Line>
-  double bestSlide(SurfaceMesh& m, Vertex o, Vertex v, Vertex N, const Vec3& depthN, double thr, const Reach& inReach,
-                   const Line& onLine, Vec3& best) {
+  // height), and o may not come near another vertex. Only from a place on the bottom's
+  // line (oOnLine) and to places within reach (inReachAt(t), o slid the fraction t of
+  // the way). Returns that sine, -1 when o carries anything but groove walls or
+  // nothing fits.
+  template <class Reach>
+  double bestSlide(SurfaceMesh& m, Vertex o, Vertex v, Vertex N, const Vec3& depthN, double thr, const Reach& inReachAt,
+                   bool oOnLine, Vec3& best) {
     const Vec3 pv = m.position(v), pN = m.position(N), po = m.position(o);
     // The first bottom vertex of a groove stays (its walls ramp up to where the cut
     // began: moved on, the groove would start shallower than the blade cut it).
@@ -1405,10 +1437,10 @@ struct CutEngine::Impl {
     const double thr2 = thr * thr, vN2 = (pN - pv).squaredNorm();
     // o slides along the bottom's line only from a place on it (tissue moved by physics
     // may have carried it off: such a slide would reshape its walls at once).
-    if (!onLine(po)) return -1.0;
+    if (!oOnLine) return -1.0;
     auto quality = [&](double t) {
       const Vec3 q = po + t * (depthN - po);
-      if (!inReach(q)) return -1.0;
+      if (!inReachAt(t)) return -1.0;
       double worst = 0.0, h2 = 0.0;
       shape2(q, pv, pN, (pv - q).cross(pN - q), vN2, worst, h2);
       if (h2 < thr2) return -1.0;
