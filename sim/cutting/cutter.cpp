@@ -861,7 +861,8 @@ struct CutEngine::Impl {
     if (nAdded == 4) {
       apexOf(m)[B] = 1;
       if (tissue(obj)) {
-        physics::initVertexCopy(m, B, n, p.tissue);
+        // (Its springs and mass: the caller's touchEach, extend being the only caller.)
+        physics::copyVertexState(m, B, n);
         auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
         if (home) home[B] = home[n] + (bestPos - m.position(n));
       }
@@ -1102,7 +1103,8 @@ struct CutEngine::Impl {
       advanceTo({v});
       return true;
     }
-    if (tissue(tr.object)) physics::initVertexCopy(m, vn, v, p.tissue);
+    // (Springs and masses of v and vn once the walls are in: touchEach below.)
+    if (tissue(tr.object)) physics::copyVertexState(m, vn, v);
     mark(tr, vn);
     std::vector<Vertex>& touched = extendTouched;
     touched.assign({v, vn, N});
@@ -1645,7 +1647,7 @@ struct CutEngine::Impl {
       Vertex nearest = loop.front();
       for (Vertex v : loop)
         if ((m.position(v) - c).squaredNorm() < (m.position(nearest) - c).squaredNorm()) nearest = v;
-      physics::initVertexCopy(m, B, nearest, p.tissue);
+      physics::copyVertexState(m, B, nearest);  // (springs and mass: touch below)
       auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
       if (home) home[B] = home[nearest] + (c - m.position(nearest));
     }

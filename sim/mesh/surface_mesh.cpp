@@ -1,8 +1,10 @@
 #include "sim/mesh/surface_mesh.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <unordered_set>
@@ -445,12 +447,33 @@ std::vector<Face> SurfaceMesh::faces(Vertex v) const {
   return out;
 }
 
-// Valences are small: a linear search in a short, hot array beats a set.
+// Valences are small: a linear search in a short, hot array beats a set. A cut's
+// groove-bottom vertex carries dozens of faces, though (the search was most of the
+// physics hooks' cost there): past 16 edges a small open-addressing table on the stack
+// (no shared scratch: a const mesh may be read by several threads). Same faces, same
+// order (first seen along the edge list).
 void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
   out.clear();
-  for (Edge e : vedges_[v])
-    for (Face f : efaces_[e])
-      if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
+  const std::vector<Edge>& es = vedges_[v];
+  constexpr std::size_t kSlots = 512;  // at most 2 faces an edge, the table half full
+  if (es.size() <= 16 || 4 * es.size() > kSlots) {
+    for (Edge e : es)
+      for (Face f : efaces_[e])
+        if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
+    return;
+  }
+  std::array<std::uint32_t, kSlots> table;
+  table.fill(std::numeric_limits<std::uint32_t>::max());
+  for (Edge e : es)
+    for (Face f : efaces_[e]) {
+      if (!f.isValid()) continue;
+      const std::uint32_t id = f.idx();
+      std::size_t slot = (id * 0x9E3779B1u) >> 23;  // 9 bits: kSlots
+      while (table[slot] != id && table[slot] != std::numeric_limits<std::uint32_t>::max()) slot = (slot + 1) % kSlots;
+      if (table[slot] == id) continue;
+      table[slot] = id;
+      out.push_back(f);
+    }
 }
 
 // In one pass over v's edges (no face list, no search, nothing deleted): an edge whose

@@ -30,10 +30,11 @@ double homeArea(const SurfaceMesh& m, const mesh::VertexProperty<Vec3>& home, Fa
 }
 
 // v and every vertex sharing an edge with it.
-std::vector<Vertex> oneRing(const SurfaceMesh& m, Vertex v) {
-  std::vector<Vertex> r{v};
+void oneRing(const SurfaceMesh& m, Vertex v, std::vector<Vertex>& r) {
+  r.clear();
+  r.reserve(m.edges(v).size() + 1);
+  r.push_back(v);
   for (Edge e : m.edges(v)) r.push_back(m.otherVertex(e, v));
-  return r;
 }
 
 void setEdge(SurfaceMesh& m, Edge e, const TissueParams& p, const mesh::VertexProperty<Vec3>& home,
@@ -50,6 +51,11 @@ struct Props {
   mesh::VertexProperty<Vec3> home, vel, force;
   mesh::VertexProperty<double> mass;
   mesh::EdgeProperty<double> rest, k;
+  // Buffers for a hook's one-ring and a vertex's faces, kept for the hook's masses (a
+  // vector grown face by face for every vertex of a ring was a third of the allocations
+  // of a cut with physics on).
+  std::vector<Vertex> ring;
+  std::vector<Face> faces;
   explicit Props(const SurfaceMesh& m)
       : home(m.getVertexProperty<Vec3>(kHomeProp)),
         vel(m.getVertexProperty<Vec3>(kVelocityProp)),
@@ -109,9 +115,9 @@ double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, con
 
 void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p, Props& q) {
   auto& mass = need(q.mass, kMassProp);
-  std::vector<Face> faces;
+  q.faces.reserve(32);
   for (Vertex v : vertices)
-    if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q, faces);
+    if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q, q.faces);
 }
 
 }  // namespace
@@ -181,8 +187,8 @@ void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, co
   vel[v] = (1.0 - t) * vel[a] + t * vel[b];
   force[v].setZero();
   for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
-  const auto ring = oneRing(m, v);
-  redistributeMassWith(m, ring, p, q);
+  oneRing(m, v, q.ring);
+  redistributeMassWith(m, q.ring, p, q);
 }
 
 void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, const Vec3& bary, const TissueParams& p) {
@@ -195,8 +201,8 @@ void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, co
   vel[v] = bary[0] * vel[a] + bary[1] * vel[b] + bary[2] * vel[c];
   force[v].setZero();
   for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
-  const auto ring = oneRing(m, v);
-  redistributeMassWith(m, ring, p, q);
+  oneRing(m, v, q.ring);
+  redistributeMassWith(m, q.ring, p, q);
 }
 
 void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const TissueParams& p) {
@@ -215,6 +221,13 @@ void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParam
   for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   const Vertex both[2] = {v, original};
   redistributeMassWith(m, both, p, q);
+}
+
+void copyVertexState(SurfaceMesh& m, Vertex v, Vertex original) {
+  Props q(m);
+  need(q.home, kHomeProp)[v] = q.home[original];
+  need(q.vel, kVelocityProp)[v] = q.vel[original];
+  need(q.force, kForceProp)[v].setZero();
 }
 
 void initEdge(SurfaceMesh& m, Edge e, const TissueParams& p) {

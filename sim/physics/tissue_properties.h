@@ -83,6 +83,10 @@ void initVertexInFace(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Face f, const 
                       const TissueParams& p);
 // v is a copy of original (splitVertex, separateEdge): same home and velocity.
 void initVertexCopy(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Vertex original, const TissueParams& p);
+// Only the state of initVertexCopy (home, velocity, zero force), for a caller that calls
+// initEdgesAround on v and original afterwards anyway (once its edit is complete): the
+// springs and masses are computed once, with the edit's final faces.
+void copyVertexState(mesh::SurfaceMesh& m, mesh::Vertex v, mesh::Vertex original);
 // e is new or its end vertices changed: rest from the homes × ratio, k = K / rest.
 void initEdge(mesh::SurfaceMesh& m, mesh::Edge e, const TissueParams& p);
 

@@ -1,6 +1,7 @@
 #include "sim/mesh/surface_mesh.h"
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -166,6 +167,43 @@ TEST(SurfaceMesh, SplitFaceMakesThree) {
   EXPECT_TRUE(m.isClosed());
   EXPECT_EQ(euler(m), 2);
   EXPECT_VALID(m);
+}
+
+// faces(v) lists each face around v once, in the order first seen along v's edge list,
+// for a few edges (linear search) and for many (a groove-bottom vertex: hash table),
+// face indices far apart included.
+TEST(SurfaceMesh, FacesAroundAVertexEachOnceInEdgeOrder) {
+  for (int n : {5, 16, 17, 40, 127, 200}) {
+    SurfaceMesh m;
+    // Faces with large indices too: a strip of unrelated faces first.
+    for (int i = 0; i < 3000; ++i) {
+      const double x = 100.0 + i;
+      m.addFace(m.addVertex({x, 0, 0}), m.addVertex({x + 1, 0, 0}), m.addVertex({x, 1, 0}));
+    }
+    const Vertex c = m.addVertex({0, 0, 0});
+    std::vector<Vertex> rim;
+    for (int i = 0; i < n; ++i) {
+      const double a = 2.0 * 3.14159265358979 * i / n;
+      rim.push_back(m.addVertex({std::cos(a), std::sin(a), 0.0}));
+    }
+    // Every other face first, so that the edge list and the face numbering disagree.
+    for (int pass = 0; pass < 2; ++pass)
+      for (int i = pass; i < n; i += 2)
+        ASSERT_TRUE(
+            m.addFace(c, rim[static_cast<std::size_t>(i)], rim[static_cast<std::size_t>((i + 1) % n)]).isValid());
+    EXPECT_VALID(m);
+    std::vector<Face> want;
+    for (Edge e : m.edges(c))
+      for (int side = 0; side < 2; ++side) {
+        const Face f = m.face(e, side);
+        if (f.isValid() && std::find(want.begin(), want.end(), f) == want.end()) want.push_back(f);
+      }
+    ASSERT_EQ(want.size(), static_cast<std::size_t>(n));
+    std::vector<Face> got{Face(0)};  // cleared first
+    m.faces(c, got);
+    EXPECT_EQ(got, want) << n << " faces";
+    EXPECT_EQ(m.faces(c), want) << n << " faces";
+  }
 }
 
 TEST(SurfaceMesh, SplitVertexSeparatesAFanAndDuplicatesSharedEdges) {
