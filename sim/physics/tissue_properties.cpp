@@ -225,9 +225,12 @@ void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParam
 
 void copyVertexState(SurfaceMesh& m, Vertex v, Vertex original) {
   Props q(m);
-  need(q.home, kHomeProp)[v] = q.home[original];
-  need(q.vel, kVelocityProp)[v] = q.vel[original];
-  need(q.force, kForceProp)[v].setZero();
+  auto& home = need(q.home, kHomeProp);
+  auto& vel = need(q.vel, kVelocityProp);
+  auto& force = need(q.force, kForceProp);
+  home[v] = home[original];
+  vel[v] = vel[original];
+  force[v].setZero();
 }
 
 void initEdge(SurfaceMesh& m, Edge e, const TissueParams& p) {

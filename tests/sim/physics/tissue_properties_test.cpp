@@ -141,5 +141,48 @@ TEST(TissueProperties, BatchEdgeHookEqualsPerVertexHooks) {
   EXPECT_THROW(initEdgesAround(bare, list, p), MissingPropertyError);
 }
 
+// copyVertexState then initEdgesAround of the copy and the original (what the cutter
+// does once its edit is complete) gives bit for bit what initVertexCopy then the same
+// initEdgesAround gives: home and velocity copied, force zeroed, springs and masses from
+// the final faces.
+TEST(TissueProperties, CopyStateThenBatchHookEqualsInitVertexCopy) {
+  auto base = makeGrid(6, 6, 2.0);
+  TissueParams p;
+  p.massFloorDt = 2e-3;
+  attachTissueProperties(base, p);
+  const mesh::Vertex v(17u);
+  {
+    auto vel = base.getVertexProperty<Vec3>(kVelocityProp);
+    auto force = base.getVertexProperty<Vec3>(kForceProp);
+    vel[v] = Vec3(1.0, -2.0, 0.5);
+    force[v] = Vec3(3.0, 0.0, 0.0);
+  }
+  // Split v: the faces on one side of a line through it go to a copy.
+  std::vector<mesh::Face> fan;
+  for (mesh::Face f : base.faces(v))
+    if (base.centroid(f).y() > base.position(v).y()) fan.push_back(f);
+  ASSERT_FALSE(fan.empty());
+  auto full = base, light = base;
+  const mesh::Vertex a = full.splitVertex(v, fan), b = light.splitVertex(v, fan);
+  ASSERT_TRUE(a.isValid());
+  ASSERT_EQ(a, b);
+  initVertexCopy(full, a, v, p);
+  copyVertexState(light, b, v);
+  const std::vector<mesh::Vertex> both = {v, a};
+  initEdgesAround(full, both, p);
+  initEdgesAround(light, both, p);
+  EXPECT_EQ(light.getVertexProperty<Vec3>(kHomeProp)[b], full.getVertexProperty<Vec3>(kHomeProp)[a]);
+  EXPECT_EQ(light.getVertexProperty<Vec3>(kVelocityProp)[b], Vec3(1.0, -2.0, 0.5));
+  EXPECT_EQ(light.getVertexProperty<Vec3>(kForceProp)[b], Vec3::Zero());
+  EXPECT_EQ(light.getEdgeProperty<double>(kRestProp).vector(), full.getEdgeProperty<double>(kRestProp).vector());
+  EXPECT_EQ(light.getEdgeProperty<double>(kStiffnessProp).vector(),
+            full.getEdgeProperty<double>(kStiffnessProp).vector());
+  EXPECT_EQ(light.getVertexProperty<double>(kMassProp).vector(), full.getVertexProperty<double>(kMassProp).vector());
+  EXPECT_LT(light.getVertexProperty<double>(kMassProp)[v], base.getVertexProperty<double>(kMassProp)[v])
+      << "the original lost the copy's faces";
+  mesh::SurfaceMesh bare = makeGrid(2, 2, 1.0);
+  EXPECT_THROW(copyVertexState(bare, mesh::Vertex(1u), mesh::Vertex(0u)), MissingPropertyError);
+}
+
 }  // namespace
 }  // namespace ld::physics
