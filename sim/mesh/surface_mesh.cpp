@@ -456,7 +456,17 @@ void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
   out.clear();
   const std::vector<Edge>& es = vedges_[v];
   constexpr std::size_t kSlots = 512;  // at most 2 faces an edge, the table half full
-  if (es.size() <= 16 || 4 * es.size() > kSlots) {
+  if (es.size() <= 16) {
+    // Into a stack buffer, then one copy (no push_back per face).
+    std::array<Face, 32> buf;
+    Face* end = buf.data();
+    for (Edge e : es)
+      for (Face f : efaces_[e])
+        if (f.isValid() && std::find(buf.data(), end, f) == end) *end++ = f;
+    out.assign(buf.data(), end);
+    return;
+  }
+  if (4 * es.size() > kSlots) {
     for (Edge e : es)
       for (Face f : efaces_[e])
         if (f.isValid() && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
