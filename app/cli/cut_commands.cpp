@@ -161,6 +161,12 @@ int cut(const Args& args) {
   j["separation_ms"] = st.separationSeconds * 1e3;
   j["fast_samples"] = st.fastSamples;
   j["slow_samples"] = st.slowSamples;
+  // How the groove's bottom was kept (reused or slid bottom vertices make no triangles)
+  // and what the safety nets did.
+  j["bottom_slides"] = st.bottomSlides;
+  j["flips"] = st.flips;
+  j["sliver_snaps"] = st.sliverSnaps;
+  j["holds"] = st.holds;
   if (physicsOn) {
     j["physics_us_per_step"] = physicsSteps > 0 ? physicsSeconds * 1e6 / physicsSteps : 0.0;
     j["physics_steps"] = physicsSteps;

@@ -100,6 +100,12 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
   EXPECT_EQ(a["closed"], true);
   EXPECT_EQ(a["triangles_added"], b["triangles_added"]);
   EXPECT_EQ(a["vertices_added"], b["vertices_added"]);
+  for (const char* k : {"bottom_slides", "flips", "sliver_snaps", "holds"}) {
+    ASSERT_TRUE(a.contains(k)) << k;
+    EXPECT_GE(a[k].get<long>(), 0) << k;
+    EXPECT_EQ(a[k], b[k]) << k;
+  }
+  EXPECT_EQ(a["holds"], 0) << "still tissue never runs ahead of the blade";
 }
 
 TEST(CutCli, PhysicsOnRunsAndStaysFinite) {
