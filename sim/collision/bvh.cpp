@@ -222,20 +222,10 @@ void TriangleBvh::updateBlockVerts(std::uint32_t b) {
 }
 
 void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
-  Node& n = nodes_[blockLeaf_[b]];
-  const BlockVerts& bv = blockVerts_[b];
-  if (bv.n == 0) {
-    for (int k = 0; k < 3; ++k) {
-      n.lo[k] = kInf;
-      n.hi[k] = -kInf;
-    }
-    return;
-  }
-  const Vector3d* P = X;
-  double padTotal = pad_;
   if (margin_ > 0.0) {
     // Fat box around the anchors; a corner that left its anchor's reach is
     // re-anchored here, and its other leaves are refitted after this round.
+    const BlockVerts& bv = blockVerts_[b];
     const double limit = margin_ - slack_;
     for (std::uint32_t j = 0; j < bv.n; ++j) {
       const std::uint32_t v = bv.v[j];
@@ -244,8 +234,21 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
         stale_.push_back(v);
       }
     }
-    P = anchor_.data();
-    padTotal += margin_;
+    boxBlock(anchor_.data(), b, pad_ + margin_);
+  } else {
+    boxBlock(X, b, pad_);
+  }
+}
+
+void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b, double padTotal) {
+  Node& n = nodes_[blockLeaf_[b]];
+  const BlockVerts& bv = blockVerts_[b];
+  if (bv.n == 0) {
+    for (int k = 0; k < 3; ++k) {
+      n.lo[k] = kInf;
+      n.hi[k] = -kInf;
+    }
+    return;
   }
 #if defined(__SSE2__)
   const double* p = P[bv.v[0]].data();
@@ -647,16 +650,21 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // Leaf boxes block by block (sequential reads of the distinct corners), then the
   // inner nodes from lists ordered children first: no recursion, no test per node.
   const Vector3d* P = m.positions().data();
+  double padTotal = pad_;
   if (margin_ > 0.0) {  // every vertex anchored where it is
     anchor_.assign(m.positions().begin(), m.positions().end());
     slack_ = margin_;
+    padTotal += margin_;
   }
   const auto nb = static_cast<std::uint32_t>(blocks_.size());
   // In double, rounded outwards once per box exactly as the local refits do. A float
   // path (positions converted once, boxes widened by ~2 ulps: slightly larger boxes)
   // was about 1.4x faster, but with it the cutter's cut-through tests crashed (in the
-  // cutter's point location; cause not found yet), so it is not used.
-  for (std::uint32_t b = 0; b < nb; ++b) fitBlock(P, b);
+  // cutter's point location; cause not found yet), so it is not used. With a margin
+  // the anchors are the positions (just copied): the boxes are fitted from the
+  // positions, the same values, without fitBlock's per-corner anchor test (which
+  // cannot fire here and was about half of the refit's time).
+  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b, padTotal);
   if (!innerLateSorted_) {
     std::sort(innerLate_.begin(), innerLate_.end(), std::greater<>());
     innerLateSorted_ = true;
@@ -665,7 +673,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // build's inner nodes; each list from the highest index down.
   for (std::uint32_t i : innerLate_) fitInner(i);
   for (std::uint32_t i : inner_) fitInner(i);
-  stale_.clear();  // (only non-finite positions get here; every vertex was just anchored)
+  stale_.clear();  // (nothing to follow: every vertex was just anchored)
 }
 
 void TriangleBvh::beginRefit() {
@@ -750,29 +758,48 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   const std::size_t nv = m.verticesSize();
   std::vector<std::uint32_t>& moving = staleWork_;  // (free here: finishRefit uses it later)
   moving.clear();
+  // A vertex's leaves cost ~50x a vertex of the full refit (the faces around it, the
+  // climb to the root): past a few percent of the vertices (a sag or a drift of the
+  // whole tissue) one refit() of everything is cheaper, and leaves the full slack. The
+  // scan stops as soon as that many are found (the count only grows).
+  const std::size_t cutoff = nv / 32;
   double worst = 0.0;
-  // Blocks of 8 vertices as 24 flat coordinates (a loop the compiler vectorises);
-  // only a block with a coordinate past theta is looked at vertex by vertex.
+  // Blocks of 8 vertices as 24 flat coordinates; only a block with a coordinate past
+  // theta is looked at vertex by vertex.
   static_assert(sizeof(Vector3d) == 3 * sizeof(double));
   const double* x = X[0].data();
   const double* a = A[0].data();
   constexpr std::size_t kChunk = 8;
+#if defined(__SSE2__)
+  // The 12 differences of a block are combined as trees (depth 4, not a chain of 12
+  // dependent max), the largest kept in a register across blocks. A NaN may vanish
+  // from a max, never from a sum: a block whose sum is NaN counts as moved.
+  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+  const __m128d th = _mm_set1_pd(theta);
+  __m128d worstV = _mm_setzero_pd();
+#endif
   for (std::size_t v0 = 0; v0 < nv; v0 += kChunk) {
     const std::size_t n = std::min(kChunk, nv - v0);
     if (n == kChunk) {
       const double* xc = x + 3 * v0;
       const double* ac = a + 3 * v0;
 #if defined(__SSE2__)
-      const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
-      const __m128d th = _mm_set1_pd(theta);
-      __m128d mx = _mm_setzero_pd(), bad = _mm_setzero_pd();
-      for (std::size_t k = 0; k < 3 * kChunk; k += 2) {
-        const __m128d e = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + k), _mm_loadu_pd(ac + k)), absMask);
-        mx = _mm_max_pd(mx, e);
-        bad = _mm_or_pd(bad, _mm_cmpnle_pd(e, th));  // NaN counts as moved
+      __m128d e[12];
+      for (std::size_t k = 0; k < 12; ++k)
+        e[k] = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + 2 * k), _mm_loadu_pd(ac + 2 * k)), absMask);
+      __m128d mx[6], sm[6];
+      for (std::size_t k = 0; k < 6; ++k) {
+        mx[k] = _mm_max_pd(e[2 * k], e[2 * k + 1]);
+        sm[k] = _mm_add_pd(e[2 * k], e[2 * k + 1]);
       }
-      if (_mm_movemask_pd(bad) == 0) {
-        worst = std::max({worst, _mm_cvtsd_f64(mx), _mm_cvtsd_f64(_mm_unpackhi_pd(mx, mx))});
+      for (std::size_t k = 0; k < 3; ++k) {
+        mx[k] = _mm_max_pd(mx[k], mx[k + 3]);
+        sm[k] = _mm_add_pd(sm[k], sm[k + 3]);
+      }
+      const __m128d big = _mm_max_pd(_mm_max_pd(mx[0], mx[1]), mx[2]);
+      const __m128d sum = _mm_add_pd(_mm_add_pd(sm[0], sm[1]), sm[2]);
+      if (_mm_movemask_pd(_mm_or_pd(_mm_cmpnle_pd(big, th), _mm_cmpunord_pd(sum, sum))) == 0) {
+        worstV = _mm_max_pd(worstV, big);
         continue;
       }
 #else
@@ -797,14 +824,14 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
       }
       moving.push_back(static_cast<std::uint32_t>(v));
     }
+    if (moving.size() > cutoff) {
+      refit(m);
+      return m.nVertices();
+    }
   }
-  // A vertex's leaves cost ~50x a vertex of the full refit (the faces around it, the
-  // climb to the root): past a few percent of the vertices (a sag or a drift of the
-  // whole tissue) one refit() of everything is cheaper, and leaves the full slack.
-  if (32 * moving.size() > nv) {
-    refit(m);
-    return m.nVertices();
-  }
+#if defined(__SSE2__)
+  worst = std::max({worst, _mm_cvtsd_f64(worstV), _mm_cvtsd_f64(_mm_unpackhi_pd(worstV, worstV))});
+#endif
   beginRefit();
   for (std::uint32_t v : moving) {
     A[v] = X[v];
