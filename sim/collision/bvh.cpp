@@ -234,7 +234,7 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
         stale_.push_back(v);
       }
     }
-    boxBlock(anchor_.data(), b, pad_ + margin_);
+    boxBlock(anchor_.data(), b, pad_);
   } else {
     boxBlock(X, b, pad_);
   }
@@ -650,11 +650,9 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // Leaf boxes block by block (sequential reads of the distinct corners), then the
   // inner nodes from lists ordered children first: no recursion, no test per node.
   const Vector3d* P = m.positions().data();
-  double padTotal = pad_;
   if (margin_ > 0.0) {  // every vertex anchored where it is
     anchor_.assign(m.positions().begin(), m.positions().end());
     slack_ = margin_;
-    padTotal += margin_;
   }
   const auto nb = static_cast<std::uint32_t>(blocks_.size());
   // In double, rounded outwards once per box exactly as the local refits do. A float
@@ -664,7 +662,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // the anchors are the positions (just copied): the boxes are fitted from the
   // positions, the same values, without fitBlock's per-corner anchor test (which
   // cannot fire here and was about half of the refit's time).
-  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b, padTotal);
+  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b, pad_);
   if (!innerLateSorted_) {
     std::sort(innerLate_.begin(), innerLate_.end(), std::greater<>());
     innerLateSorted_ = true;
@@ -1192,8 +1190,10 @@ SyncResult TriangleBvh::sync(const mesh::SurfaceMesh& m) {
 
 void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const {
   // Boxes already carry the pad; grow the query box by the same amount so that the
-  // test is as loose as pad on both sides.
-  const Vector3d lo = box.min.array() - pad_, hi = box.max.array() + pad_;
+  // test is as loose as pad on both sides (and by how far the vertices may have left
+  // the anchors the boxes were fitted around).
+  const double g = pad_ + motionGrow();
+  const Vector3d lo = box.min.array() - g, hi = box.max.array() + g;
   traverse(
       [&](const Node& h) {
         return !(h.lo[0] > hi[0] || h.lo[1] > hi[1] || h.lo[2] > hi[2] || lo[0] > h.hi[0] || lo[1] > h.hi[1] ||
@@ -1244,7 +1244,7 @@ struct TriangleSat {
 
 void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, const Vector3d& p2,
                                     std::vector<Face>& out) const {
-  const double g = pad_;
+  const double g = pad_ + motionGrow();
   const Vector3d tri[3] = {p0, p1, p2};
   const TriangleSat sat(tri);
   Box tb;
@@ -1270,7 +1270,7 @@ void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a
                                    std::vector<SurfaceHit>& out, QueryCounters* counters) const {
   checkMesh(m, "intersectSegment");
   out.clear();
-  const double grow = queryGrow(a, b);
+  const double grow = queryGrow(a, b) + motionGrow();
   const SegmentSlab slab(a, b, grow);
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
@@ -1314,7 +1314,7 @@ void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a
 bool TriangleBvh::anyHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
                          QueryCounters* counters) const {
   checkMesh(m, "anyHit");
-  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const SegmentSlab slab(a, b, queryGrow(a, b) + motionGrow());
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
   QueryCounters qc;
@@ -1346,7 +1346,7 @@ bool TriangleBvh::anyHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Ve
 bool TriangleBvh::firstHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b, SurfaceHit& out,
                            QueryCounters* counters) const {
   checkMesh(m, "firstHit");
-  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const SegmentSlab slab(a, b, queryGrow(a, b) + motionGrow());
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
   const double md = defaultMergeDistance(a, b, tol_);
@@ -1442,6 +1442,7 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
   if (blockLeaf_.size() != blocks_.size() || blockVerts_.size() != blocks_.size()) why << "block map out of step\n";
   std::size_t inner = 0;
   for (const Node& n : nodes_) inner += n.leaf() ? 0 : 1;
+  const double grow = motionGrow();
   if (inner != inner_.size() + innerLate_.size()) why << "inner node lists out of step\n";
   for (std::size_t b = 0; b < blocks_.size() && b < blockVerts_.size() && b < blockLeaf_.size(); ++b) {
     // The cached corner list: exactly the distinct corners of the block's faces.
@@ -1476,7 +1477,8 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
         for (int c = 0; c < 3; ++c) {
           if (r.v[c] != vs[static_cast<std::size_t>(c)].idx()) why << "stale corners of " << f << "\n";
           const Vector3d& p = m.position(vs[static_cast<std::size_t>(c)]);
-          if ((p.array() < nb.min.array()).any() || (p.array() > nb.max.array()).any())
+          // (With a motion margin, as grown at query time.)
+          if ((p.array() < nb.min.array() - grow).any() || (p.array() > nb.max.array() + grow).any())
             why << "leaf " << i << " box misses a corner of " << f << "\n";
         }
       }

@@ -275,9 +275,12 @@ TEST(TriangleBvh, FatBoxPassKeepsItsWorstVertexInTheSlack) {
     ASSERT_EQ(bvh.check(m), "");
     std::copy(rest.begin(), rest.end(), m.positions().begin());
   }
-  // Everything past theta, found in the first blocks: the pass stops and refits all;
-  // the boxes keep the whole margin, so moves adding up to just under it are skipped
-  // and every box still holds its faces (a refit without the margin would not).
+  // Everything past theta, found in the first blocks: the pass stops and refits all
+  // (boxes around the new anchors); moves adding up to just under the margin are
+  // skipped, and the queries must grow the boxes by them: every box still holds its
+  // faces, segment queries equal brute force, and the box and triangle queries the
+  // cutter and the swept test use find every face (a grow that forgot the skipped
+  // moves would miss them).
   {
     TriangleBvh bvh(m);
     bvh.setMotionMargin(m, margin);
@@ -290,6 +293,22 @@ TEST(TriangleBvh, FatBoxPassKeepsItsWorstVertexInTheSlack) {
     }
     EXPECT_EQ(bvh.motionPasses(), 1u);
     expectBvhMatchesBruteForce(m, bvh, src, 20);
+    std::vector<Face> near;
+    for (Face f : m.faces()) {
+      const auto& vs = m.vertices(f);
+      const Vector3d t[3] = {m.position(vs[0]), m.position(vs[1]), m.position(vs[2])};
+      Box box;
+      for (const Vector3d& p : t) box.extend(p);
+      near.clear();
+      bvh.facesOverlapping(box, near);
+      ASSERT_NE(std::find(near.begin(), near.end(), f), near.end()) << "facesOverlapping misses " << f;
+      near.clear();
+      bvh.facesNearTriangle(t[0], t[1], t[2], near);
+      ASSERT_NE(std::find(near.begin(), near.end(), f), near.end()) << "facesNearTriangle misses " << f;
+    }
+    const Box root = bvh.bounds();
+    for (const Vector3d& p : m.positions())
+      ASSERT_TRUE((p.array() >= root.min.array()).all() && (p.array() <= root.max.array()).all());
   }
 }
 
