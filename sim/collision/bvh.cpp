@@ -222,20 +222,10 @@ void TriangleBvh::updateBlockVerts(std::uint32_t b) {
 }
 
 void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
-  Node& n = nodes_[blockLeaf_[b]];
-  const BlockVerts& bv = blockVerts_[b];
-  if (bv.n == 0) {
-    for (int k = 0; k < 3; ++k) {
-      n.lo[k] = kInf;
-      n.hi[k] = -kInf;
-    }
-    return;
-  }
-  const Vector3d* P = X;
-  double padTotal = pad_;
   if (margin_ > 0.0) {
     // Fat box around the anchors; a corner that left its anchor's reach is
     // re-anchored here, and its other leaves are refitted after this round.
+    const BlockVerts& bv = blockVerts_[b];
     const double limit = margin_ - slack_;
     for (std::uint32_t j = 0; j < bv.n; ++j) {
       const std::uint32_t v = bv.v[j];
@@ -244,8 +234,21 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
         stale_.push_back(v);
       }
     }
-    P = anchor_.data();
-    padTotal += margin_;
+    boxBlock(anchor_.data(), b, pad_);
+  } else {
+    boxBlock(X, b, pad_);
+  }
+}
+
+void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b, double padTotal) {
+  Node& n = nodes_[blockLeaf_[b]];
+  const BlockVerts& bv = blockVerts_[b];
+  if (bv.n == 0) {
+    for (int k = 0; k < 3; ++k) {
+      n.lo[k] = kInf;
+      n.hi[k] = -kInf;
+    }
+    return;
   }
 #if defined(__SSE2__)
   const double* p = P[bv.v[0]].data();
@@ -655,8 +658,11 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // In double, rounded outwards once per box exactly as the local refits do. A float
   // path (positions converted once, boxes widened by ~2 ulps: slightly larger boxes)
   // was about 1.4x faster, but with it the cutter's cut-through tests crashed (in the
-  // cutter's point location; cause not found yet), so it is not used.
-  for (std::uint32_t b = 0; b < nb; ++b) fitBlock(P, b);
+  // cutter's point location; cause not found yet), so it is not used. With a margin
+  // the anchors are the positions (just copied): the boxes are fitted from the
+  // positions, the same values, without fitBlock's per-corner anchor test (which
+  // cannot fire here and was about half of the refit's time).
+  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b, pad_);
   if (!innerLateSorted_) {
     std::sort(innerLate_.begin(), innerLate_.end(), std::greater<>());
     innerLateSorted_ = true;
@@ -665,7 +671,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // build's inner nodes; each list from the highest index down.
   for (std::uint32_t i : innerLate_) fitInner(i);
   for (std::uint32_t i : inner_) fitInner(i);
-  stale_.clear();  // (only non-finite positions get here; every vertex was just anchored)
+  stale_.clear();  // (nothing to follow: every vertex was just anchored)
 }
 
 void TriangleBvh::beginRefit() {
@@ -750,29 +756,48 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   const std::size_t nv = m.verticesSize();
   std::vector<std::uint32_t>& moving = staleWork_;  // (free here: finishRefit uses it later)
   moving.clear();
+  // A vertex's leaves cost ~50x a vertex of the full refit (the faces around it, the
+  // climb to the root): past a few percent of the vertices (a sag or a drift of the
+  // whole tissue) one refit() of everything is cheaper, and leaves the full slack. The
+  // scan stops as soon as that many are found (the count only grows).
+  const std::size_t cutoff = nv / 32;
   double worst = 0.0;
-  // Blocks of 8 vertices as 24 flat coordinates (a loop the compiler vectorises);
-  // only a block with a coordinate past theta is looked at vertex by vertex.
+  // Blocks of 8 vertices as 24 flat coordinates; only a block with a coordinate past
+  // theta is looked at vertex by vertex.
   static_assert(sizeof(Vector3d) == 3 * sizeof(double));
   const double* x = X[0].data();
   const double* a = A[0].data();
   constexpr std::size_t kChunk = 8;
+#if defined(__SSE2__)
+  // The 12 differences of a block are combined as trees (depth 4, not a chain of 12
+  // dependent max), the largest kept in a register across blocks. A NaN may vanish
+  // from a max, never from a sum: a block whose sum is NaN counts as moved.
+  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+  const __m128d th = _mm_set1_pd(theta);
+  __m128d worstV = _mm_setzero_pd();
+#endif
   for (std::size_t v0 = 0; v0 < nv; v0 += kChunk) {
     const std::size_t n = std::min(kChunk, nv - v0);
     if (n == kChunk) {
       const double* xc = x + 3 * v0;
       const double* ac = a + 3 * v0;
 #if defined(__SSE2__)
-      const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
-      const __m128d th = _mm_set1_pd(theta);
-      __m128d mx = _mm_setzero_pd(), bad = _mm_setzero_pd();
-      for (std::size_t k = 0; k < 3 * kChunk; k += 2) {
-        const __m128d e = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + k), _mm_loadu_pd(ac + k)), absMask);
-        mx = _mm_max_pd(mx, e);
-        bad = _mm_or_pd(bad, _mm_cmpnle_pd(e, th));  // NaN counts as moved
+      __m128d e[12];
+      for (std::size_t k = 0; k < 12; ++k)
+        e[k] = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + 2 * k), _mm_loadu_pd(ac + 2 * k)), absMask);
+      __m128d mx[6], sm[6];
+      for (std::size_t k = 0; k < 6; ++k) {
+        mx[k] = _mm_max_pd(e[2 * k], e[2 * k + 1]);
+        sm[k] = _mm_add_pd(e[2 * k], e[2 * k + 1]);
       }
-      if (_mm_movemask_pd(bad) == 0) {
-        worst = std::max({worst, _mm_cvtsd_f64(mx), _mm_cvtsd_f64(_mm_unpackhi_pd(mx, mx))});
+      for (std::size_t k = 0; k < 3; ++k) {
+        mx[k] = _mm_max_pd(mx[k], mx[k + 3]);
+        sm[k] = _mm_add_pd(sm[k], sm[k + 3]);
+      }
+      const __m128d big = _mm_max_pd(_mm_max_pd(mx[0], mx[1]), mx[2]);
+      const __m128d sum = _mm_add_pd(_mm_add_pd(sm[0], sm[1]), sm[2]);
+      if (_mm_movemask_pd(_mm_or_pd(_mm_cmpnle_pd(big, th), _mm_cmpunord_pd(sum, sum))) == 0) {
+        worstV = _mm_max_pd(worstV, big);
         continue;
       }
 #else
@@ -797,14 +822,14 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
       }
       moving.push_back(static_cast<std::uint32_t>(v));
     }
+    if (moving.size() > cutoff) {
+      refit(m);
+      return m.nVertices();
+    }
   }
-  // A vertex's leaves cost ~50x a vertex of the full refit (the faces around it, the
-  // climb to the root): past a few percent of the vertices (a sag or a drift of the
-  // whole tissue) one refit() of everything is cheaper, and leaves the full slack.
-  if (32 * moving.size() > nv) {
-    refit(m);
-    return m.nVertices();
-  }
+#if defined(__SSE2__)
+  worst = std::max({worst, _mm_cvtsd_f64(worstV), _mm_cvtsd_f64(_mm_unpackhi_pd(worstV, worstV))});
+#endif
   beginRefit();
   for (std::uint32_t v : moving) {
     A[v] = X[v];
@@ -1165,8 +1190,10 @@ SyncResult TriangleBvh::sync(const mesh::SurfaceMesh& m) {
 
 void TriangleBvh::facesOverlapping(const Box& box, std::vector<Face>& out) const {
   // Boxes already carry the pad; grow the query box by the same amount so that the
-  // test is as loose as pad on both sides.
-  const Vector3d lo = box.min.array() - pad_, hi = box.max.array() + pad_;
+  // test is as loose as pad on both sides (and by how far the vertices may have left
+  // the anchors the boxes were fitted around).
+  const double g = pad_ + motionGrow();
+  const Vector3d lo = box.min.array() - g, hi = box.max.array() + g;
   traverse(
       [&](const Node& h) {
         return !(h.lo[0] > hi[0] || h.lo[1] > hi[1] || h.lo[2] > hi[2] || lo[0] > h.hi[0] || lo[1] > h.hi[1] ||
@@ -1217,7 +1244,7 @@ struct TriangleSat {
 
 void TriangleBvh::facesNearTriangle(const Vector3d& p0, const Vector3d& p1, const Vector3d& p2,
                                     std::vector<Face>& out) const {
-  const double g = pad_;
+  const double g = pad_ + motionGrow();
   const Vector3d tri[3] = {p0, p1, p2};
   const TriangleSat sat(tri);
   Box tb;
@@ -1243,7 +1270,7 @@ void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a
                                    std::vector<SurfaceHit>& out, QueryCounters* counters) const {
   checkMesh(m, "intersectSegment");
   out.clear();
-  const double grow = queryGrow(a, b);
+  const double grow = queryGrow(a, b) + motionGrow();
   const SegmentSlab slab(a, b, grow);
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
@@ -1287,7 +1314,7 @@ void TriangleBvh::intersectSegment(const mesh::SurfaceMesh& m, const Vector3d& a
 bool TriangleBvh::anyHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b,
                          QueryCounters* counters) const {
   checkMesh(m, "anyHit");
-  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const SegmentSlab slab(a, b, queryGrow(a, b) + motionGrow());
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
   QueryCounters qc;
@@ -1319,7 +1346,7 @@ bool TriangleBvh::anyHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Ve
 bool TriangleBvh::firstHit(const mesh::SurfaceMesh& m, const Vector3d& a, const Vector3d& b, SurfaceHit& out,
                            QueryCounters* counters) const {
   checkMesh(m, "firstHit");
-  const SegmentSlab slab(a, b, queryGrow(a, b));
+  const SegmentSlab slab(a, b, queryGrow(a, b) + motionGrow());
   const double segScale = std::max(maxAbs(a), maxAbs(b));
   const Vector3d* P = m.positions().data();
   const double md = defaultMergeDistance(a, b, tol_);
@@ -1415,6 +1442,7 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
   if (blockLeaf_.size() != blocks_.size() || blockVerts_.size() != blocks_.size()) why << "block map out of step\n";
   std::size_t inner = 0;
   for (const Node& n : nodes_) inner += n.leaf() ? 0 : 1;
+  const double grow = motionGrow();
   if (inner != inner_.size() + innerLate_.size()) why << "inner node lists out of step\n";
   for (std::size_t b = 0; b < blocks_.size() && b < blockVerts_.size() && b < blockLeaf_.size(); ++b) {
     // The cached corner list: exactly the distinct corners of the block's faces.
@@ -1449,7 +1477,8 @@ std::string TriangleBvh::check(const mesh::SurfaceMesh& m) const {
         for (int c = 0; c < 3; ++c) {
           if (r.v[c] != vs[static_cast<std::size_t>(c)].idx()) why << "stale corners of " << f << "\n";
           const Vector3d& p = m.position(vs[static_cast<std::size_t>(c)]);
-          if ((p.array() < nb.min.array()).any() || (p.array() > nb.max.array()).any())
+          // (With a motion margin, as grown at query time.)
+          if ((p.array() < nb.min.array() - grow).any() || (p.array() > nb.max.array() + grow).any())
             why << "leaf " << i << " box misses a corner of " << f << "\n";
         }
       }

@@ -100,11 +100,13 @@ class TriangleBvh {
 
   // Fat boxes for tissue that moves a little every step (physics without an active
   // region): with a margin > 0 every leaf box is fitted around the positions its
-  // corners had when they were last anchored, grown by the margin, and a vertex is
-  // re-anchored (its leaves refitted) only once it has moved farther than that from
-  // its anchor (per coordinate). Queries stay exact (they test the true positions);
-  // only the pruning boxes are larger. Default 0: tight boxes, behaviour unchanged.
-  // Takes effect at once (a full refit).
+  // corners had when they were last anchored, and a vertex is re-anchored (its leaves
+  // refitted) only once it has moved farther than the margin from its anchor (per
+  // coordinate). Queries grow every box by how far the vertices may have moved since
+  // (tracked from the passes and the callers' bounds; at most the margin, 0 right after
+  // a full refit). Queries stay exact (they test the true positions); only the pruning
+  // boxes are larger. Default 0: tight boxes, behaviour unchanged. Takes effect at
+  // once (a full refit).
   void setMotionMargin(const mesh::SurfaceMesh& m, double margin);
   [[nodiscard]] double motionMargin() const { return margin_; }
   [[nodiscard]] std::size_t motionPasses() const { return motionPasses_; }  // refitMoved calls that read the vertices
@@ -159,7 +161,17 @@ class TriangleBvh {
 
   [[nodiscard]] bool tracks(mesh::Face f) const { return f.idx() < faceSlot_.size() && faceSlot_[f.idx()] != kNone; }
   // Root box (float precision, rounded outwards, grown by pad()).
-  [[nodiscard]] Box bounds() const { return nodes_.empty() ? Box{} : boxOf(0); }
+  // With a motion margin, grown by how far the vertices may have moved from the anchors
+  // the boxes were fitted around (at most the margin).
+  [[nodiscard]] Box bounds() const {
+    if (nodes_.empty()) return Box{};
+    Box b = boxOf(0);
+    if (!b.empty()) {
+      b.min.array() -= motionGrow();
+      b.max.array() += motionGrow();
+    }
+    return b;
+  }
   [[nodiscard]] const Tolerance& tolerance() const { return tol_; }
   [[nodiscard]] double pad() const { return pad_; }
   [[nodiscard]] BvhStats stats() const;
@@ -212,6 +224,8 @@ class TriangleBvh {
   void growAnchors(const mesh::SurfaceMesh& m);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
+  // The box of a block's corners read from P, grown by padTotal (no anchor test).
+  void boxBlock(const Eigen::Vector3d* P, std::uint32_t block, double padTotal);
   void fitInner(std::uint32_t i);
   void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
     if (nodes_[i].leaf()) {
@@ -230,6 +244,9 @@ class TriangleBvh {
   void finishRefit(const mesh::SurfaceMesh& m);
   void addVertexLeaves(const mesh::SurfaceMesh& m, mesh::Vertex v);
   [[nodiscard]] Box boxOf(std::size_t i) const;
+  // Every tracked vertex is within this of its anchor (per coordinate): queries grow
+  // the boxes (fitted around the anchors) by it. 0 without a margin.
+  [[nodiscard]] double motionGrow() const { return margin_ - slack_; }
   [[nodiscard]] std::uint32_t leafOf(mesh::Face f) const { return blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity]; }
 
   struct BuildItem;

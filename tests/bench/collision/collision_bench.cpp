@@ -81,7 +81,13 @@ BENCHMARK(BM_SegmentTriangle);
 void runQueries(benchmark::State& st, const Segments& segs, double margin = 0.0) {
   const SurfaceMesh& m = slabCells(static_cast<int>(st.range(0)));
   TriangleBvh bvh(m);
-  if (margin > 0) bvh.setMotionMargin(m, margin);
+  if (margin > 0) {
+    bvh.setMotionMargin(m, margin);
+    // Tell the tree everything may have moved by (almost) the margin: the slack is used
+    // up and queries grow the boxes by the whole margin, the widest they get (right
+    // after the refit above they would be as tight as without a margin).
+    bvh.refitMoved(m, margin * (1.0 - 1e-6));
+  }
   std::vector<ld::collision::SurfaceHit> hits;
   std::size_t i = 0, total = 0;
   const std::size_t mask = segs.size() - 1;
@@ -103,7 +109,8 @@ void runQueries(benchmark::State& st, const Segments& segs, double margin = 0.0)
 void BM_QueryNear(benchmark::State& st) { runQueries(st, blades(1024)); }
 BENCHMARK(BM_QueryNear)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
 
-// The same with fat boxes (setMotionMargin, range(1) um): what the margin costs a query.
+// The same with fat boxes (setMotionMargin, range(1) um) at their widest: what the
+// margin costs a query at most.
 void BM_QueryNearFat(benchmark::State& st) { runQueries(st, blades(1024), st.range(1) * 1e-3); }
 BENCHMARK(BM_QueryNearFat)
     ->Args({50, 250})
@@ -325,6 +332,61 @@ BENCHMARK(BM_BvhMovingTissue)
     ->Args({158, 100, 100, 1})
     ->Args({158, 500, 100, 1})
     ->ArgNames({"cells", "margin_um", "amp_um", "bound"})
+    ->Unit(benchmark::kMicrosecond);
+
+// The same loop with the kind of motion the physics step makes on the 100k slab (probed
+// with physics::step: a settling rim, a patch pulled by a grasper, a cut's wound
+// retracting): a few vertices move fast and set the step's bound (Dynamics::maxMove =
+// dt max|v|, 0.02-0.05 mm a step, up to 0.45 mm after cuts), the bulk barely moves. Here
+// a bump of radius 5 mm, amplitude range(2) um and period 40 steps travels slowly over
+// the top while everything sags by 20 um (period 400 steps); the bound is the step's
+// largest move, so passes come every few steps and re-anchor only the bump: the pass's
+// scan over every vertex is most of the cost (BM_BvhMovingTissue's coherent sag instead
+// makes most passes full refits).
+void BM_BvhMovingTissueLocal(benchmark::State& st) {
+  SurfaceMesh m = slabCells(static_cast<int>(st.range(0)));
+  const double margin = st.range(1) * 1e-3, amp = st.range(2) * 1e-3;
+  TriangleBvh bvh(m);
+  if (margin > 0) bvh.setMotionMargin(m, margin);
+  const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
+  std::vector<double> shape(rest.size());
+  for (std::size_t v = 0; v < rest.size(); ++v)
+    shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
+  const Segments segs = blades(1024);
+  std::vector<ld::collision::SurfaceHit> out;
+  std::size_t k = 0, reanchored = 0, hits = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    const double t = static_cast<double>(k);
+    const double sag = 0.02 * std::sin(2.0 * 3.14159 * t / 400.0);
+    const double bump = amp * std::sin(2.0 * 3.14159 * t / 40.0);
+    const Vector3d c(0.3 * kSide + std::fmod(0.01 * t, 0.4 * kSide), 0.5 * kSide, 0.0);
+    double bound = 0.0;
+    for (std::size_t v = 0; v < rest.size(); ++v) {
+      const double r2 = (rest[v] - c).head<2>().squaredNorm();
+      const double z = rest[v].z() + sag * shape[v] + (r2 < 25.0 ? bump * (1.0 - r2 / 25.0) : 0.0);
+      bound = std::max(bound, std::abs(z - m.positions()[v].z()));
+      m.positions()[v].z() = z;
+    }
+    st.ResumeTiming();
+    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), rest.size());
+    for (int q = 0; q < 4; ++q) {
+      const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
+      bvh.intersectSegment(m, s.first, s.second, out);
+      hits += out.size();
+    }
+    ++k;
+  }
+  const auto n = static_cast<double>(st.iterations());
+  st.counters["triangles"] = static_cast<double>(m.nFaces());
+  st.counters["reanchored"] = static_cast<double>(reanchored) / n;
+  st.counters["passes"] = margin > 0 ? static_cast<double>(bvh.motionPasses()) / n : 1.0;
+  st.counters["hits"] = static_cast<double>(hits) / n;
+}
+BENCHMARK(BM_BvhMovingTissueLocal)
+    ->Args({158, 0, 300})
+    ->Args({158, 250, 300})
+    ->ArgNames({"cells", "margin_um", "bump_um"})
     ->Unit(benchmark::kMicrosecond);
 
 // Local refit after a region of `range(0)` vertices moved (the active region).

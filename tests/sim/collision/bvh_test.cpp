@@ -227,6 +227,91 @@ TEST(TriangleBvh, FatBoxesWithAMoveBoundSkipPassesAndStayExact) {
   EXPECT_GT(passes, 0);
 }
 
+// The pass's bookkeeping, vertex by vertex: a vertex that stays just below the
+// re-anchor distance must count in the slack the pass leaves (wherever it sits in the
+// scan's blocks of 8 and in the tail), or a later skipped pass would leave it outside
+// its box; past 1/32 of the vertices the pass stops early and refits everything, and
+// those boxes must still carry the margin for the skipped passes that follow.
+TEST(TriangleBvh, FatBoxPassKeepsItsWorstVertexInTheSlack) {
+  const double margin = 0.1, theta = 0.5 * margin;  // a bound given: re-anchor at half
+  SegmentSource src(12);
+  SurfaceMesh m = testing::slab(10, 1.0, 2.0);
+  const std::size_t nv = m.verticesSize();
+  ASSERT_GT(nv % 8, 0u) << "the mesh should leave a tail after the blocks of 8";
+  for (std::size_t v : {std::size_t{0}, std::size_t{3}, std::size_t{7}, std::size_t{8}, std::size_t{13}, nv / 2, nv - 9,
+                        nv - 2, nv - 1}) {
+    const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
+    TriangleBvh bvh(m);
+    bvh.setMotionMargin(m, margin);
+    const mesh::Vertex x(static_cast<std::uint32_t>(v));
+    // Just below theta, with a bound that forces a pass: nobody is re-anchored, and the
+    // slack left is margin - 0.049.
+    m.position(x).z() += 0.049;
+    EXPECT_EQ(bvh.refitMoved(m, 0.2), 0u) << "vertex " << v;
+    EXPECT_EQ(bvh.motionPasses(), 1u);
+    ASSERT_EQ(bvh.check(m), "") << "vertex " << v;
+    // Within that slack: skipped, and the box still holds the vertex (0.089 < margin).
+    m.position(x).z() += 0.04;
+    EXPECT_EQ(bvh.refitMoved(m, 0.04), 0u);
+    EXPECT_EQ(bvh.motionPasses(), 1u) << "vertex " << v << ": 0.04 fits in the slack";
+    ASSERT_EQ(bvh.check(m), "") << "vertex " << v;
+    // Beyond it: a pass (with the slack of a pass that forgot the vertex, this move
+    // would be skipped and the box would miss it), which re-anchors the vertex.
+    m.position(x).z() += 0.02;
+    EXPECT_EQ(bvh.refitMoved(m, 0.02), 1u) << "vertex " << v;
+    EXPECT_EQ(bvh.motionPasses(), 2u) << "vertex " << v;
+    ASSERT_EQ(bvh.check(m), "") << "vertex " << v;
+    expectBvhMatchesBruteForce(m, bvh, src, 10);
+    std::copy(rest.begin(), rest.end(), m.positions().begin());
+  }
+  // Exactly nv / 32 vertices past theta: refitted locally; one more: everything.
+  for (std::size_t extra = 0; extra < 2; ++extra) {
+    const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
+    TriangleBvh bvh(m);
+    bvh.setMotionMargin(m, margin);
+    const std::size_t n = nv / 32 + extra;
+    for (std::size_t i = 0; i < n; ++i) m.positions()[nv - 1 - 3 * i].z() += 1.5 * theta;
+    EXPECT_EQ(bvh.refitMoved(m, 2.0 * theta), extra ? m.nVertices() : n);
+    ASSERT_EQ(bvh.check(m), "");
+    std::copy(rest.begin(), rest.end(), m.positions().begin());
+  }
+  // Everything past theta, found in the first blocks: the pass stops and refits all
+  // (boxes around the new anchors); moves adding up to just under the margin are
+  // skipped, and the queries must grow the boxes by them: every box still holds its
+  // faces, segment queries equal brute force, and the box and triangle queries the
+  // cutter and the swept test use find every face (a grow that forgot the skipped
+  // moves would miss them).
+  {
+    TriangleBvh bvh(m);
+    bvh.setMotionMargin(m, margin);
+    for (Vector3d& p : m.positions()) p.z() += 0.07;
+    EXPECT_EQ(bvh.refitMoved(m, 0.2), m.nVertices());
+    for (int k = 0; k < 3; ++k) {
+      for (Vector3d& p : m.positions()) p.z() -= 0.03;
+      EXPECT_EQ(bvh.refitMoved(m, 0.03), 0u);
+      ASSERT_EQ(bvh.check(m), "") << "skipped pass " << k;
+    }
+    EXPECT_EQ(bvh.motionPasses(), 1u);
+    expectBvhMatchesBruteForce(m, bvh, src, 20);
+    std::vector<Face> near;
+    for (Face f : m.faces()) {
+      const auto& vs = m.vertices(f);
+      const Vector3d t[3] = {m.position(vs[0]), m.position(vs[1]), m.position(vs[2])};
+      Box box;
+      for (const Vector3d& p : t) box.extend(p);
+      near.clear();
+      bvh.facesOverlapping(box, near);
+      ASSERT_NE(std::find(near.begin(), near.end(), f), near.end()) << "facesOverlapping misses " << f;
+      near.clear();
+      bvh.facesNearTriangle(t[0], t[1], t[2], near);
+      ASSERT_NE(std::find(near.begin(), near.end(), f), near.end()) << "facesNearTriangle misses " << f;
+    }
+    const Box root = bvh.bounds();
+    for (const Vector3d& p : m.positions())
+      ASSERT_TRUE((p.array() >= root.min.array()).all() && (p.array() <= root.max.array()).all());
+  }
+}
+
 TEST(TriangleBvh, MotionMarginMisuseThrows) {
   SurfaceMesh m = testing::grid(4);
   TriangleBvh bvh(m);
