@@ -3244,10 +3244,7 @@ struct CutEngine::Impl {
     }
     // Passed now with `room` (thinRoom); returns when that expires.
     float pass(Face f, double room) {
-      if (f.idx() >= okGen.size()) {
-        okGen.resize(f.idx() + 1024, 0);
-        okUntil.resize(f.idx() + 1024, 0.0f);
-      }
+      if (f.idx() >= okGen.size()) grow(okGen, okUntil, f.idx() + 1024);
       okGen[f.idx()] = gen;
       return okUntil[f.idx()] = roundedDown(drift + room);
     }
@@ -3256,10 +3253,7 @@ struct CutEngine::Impl {
       return v.idx() < settledGen.size() && settledGen[v.idx()] == gen && settledUntil[v.idx()] > drift;
     }
     void settle(Vertex v, float until) {
-      if (v.idx() >= settledGen.size()) {
-        settledGen.resize(v.idx() + 1024, 0);
-        settledUntil.resize(v.idx() + 1024, 0.0f);
-      }
+      if (v.idx() >= settledGen.size()) grow(settledGen, settledUntil, v.idx() + 1024);
       settledGen[v.idx()] = gen;
       settledUntil[v.idx()] = until;
     }
@@ -3267,14 +3261,13 @@ struct CutEngine::Impl {
       if (v.isValid() && v.idx() < settledGen.size()) settledGen[v.idx()] = 0;
     }
     void resize(std::size_t nf, std::size_t nv) {
-      if (okGen.size() < nf) {
-        okGen.resize(nf, 0);
-        okUntil.resize(nf, 0.0f);
-      }
-      if (settledGen.size() < nv) {
-        settledGen.resize(nv, 0);
-        settledUntil.resize(nv, 0.0f);
-      }
+      grow(okGen, okUntil, nf);
+      grow(settledGen, settledUntil, nv);
+    }
+    static void grow(std::vector<std::uint32_t>& gens, std::vector<float>& untils, std::size_t n) {
+      if (gens.size() >= n) return;
+      gens.resize(n, 0);
+      untils.resize(n, 0.0f);
     }
     static float roundedDown(double x) {
       const float f = static_cast<float>(x);

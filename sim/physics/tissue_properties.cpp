@@ -210,14 +210,21 @@ void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const 
   initVertexInFace(m, v, vs[0], vs[1], vs[2], bary, p);
 }
 
-void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParams& p) {
-  Props q(m);
+namespace {
+// Home and velocity of original, no force (every property checked before any is read).
+void copyStateWith(Props& q, Vertex v, Vertex original) {
   auto& home = need(q.home, kHomeProp);
   auto& vel = need(q.vel, kVelocityProp);
   auto& force = need(q.force, kForceProp);
   home[v] = home[original];
   vel[v] = vel[original];
   force[v].setZero();
+}
+}  // namespace
+
+void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParams& p) {
+  Props q(m);
+  copyStateWith(q, v, original);
   for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   const Vertex both[2] = {v, original};
   redistributeMassWith(m, both, p, q);
@@ -225,12 +232,7 @@ void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParam
 
 void copyVertexState(SurfaceMesh& m, Vertex v, Vertex original) {
   Props q(m);
-  auto& home = need(q.home, kHomeProp);
-  auto& vel = need(q.vel, kVelocityProp);
-  auto& force = need(q.force, kForceProp);
-  home[v] = home[original];
-  vel[v] = vel[original];
-  force[v].setZero();
+  copyStateWith(q, v, original);
 }
 
 void initEdge(SurfaceMesh& m, Edge e, const TissueParams& p) {

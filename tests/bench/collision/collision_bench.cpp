@@ -278,6 +278,48 @@ void BM_BvhRefitFull(benchmark::State& st) {
 }
 BENCHMARK(BM_BvhRefitFull)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells")->Unit(benchmark::kMicrosecond);
 
+// The moving-tissue benchmarks' scene and step: slab of range(0) cells, fat boxes of
+// range(1) um (0: tight boxes, full refits), amplitude range(2) um, a sine sag shape,
+// blades; step() (timed) refits as the physics' callers do (fat boxes with the step's
+// bound, or a full refit without a margin), then makes 4 blade queries.
+struct MovingScene {
+  SurfaceMesh m;
+  double margin, amp;
+  TriangleBvh bvh;
+  std::vector<Vector3d> rest;
+  std::vector<double> shape;
+  Segments segs = blades(1024);
+  std::vector<ld::collision::SurfaceHit> out;
+  std::size_t k = 0, reanchored = 0, hits = 0;
+  explicit MovingScene(const benchmark::State& st)
+      : m(slabCells(static_cast<int>(st.range(0)))),
+        margin(static_cast<double>(st.range(1)) * 1e-3),
+        amp(static_cast<double>(st.range(2)) * 1e-3),
+        bvh(m),
+        rest(m.positions().begin(), m.positions().end()),
+        shape(rest.size()) {
+    if (margin > 0) bvh.setMotionMargin(m, margin);
+    for (std::size_t v = 0; v < rest.size(); ++v)
+      shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
+  }
+  void step(double bound) {
+    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), m.nVertices());
+    for (int q = 0; q < 4; ++q) {
+      const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
+      bvh.intersectSegment(m, s.first, s.second, out);
+      hits += out.size();
+    }
+    ++k;
+  }
+  void counters(benchmark::State& st) const {
+    const auto n = static_cast<double>(st.iterations());
+    st.counters["triangles"] = static_cast<double>(m.nFaces());
+    st.counters["reanchored"] = static_cast<double>(reanchored) / n;
+    st.counters["passes"] = margin > 0 ? static_cast<double>(bvh.motionPasses()) / n : 1.0;
+    st.counters["hits"] = static_cast<double>(hits) / n;
+  }
+};
+
 // Moving tissue with fat boxes (setMotionMargin, range(1) um): every vertex moves each
 // step (a standing wave of amplitude range(2) um, period 200 steps, plus a slow sag
 // of 1 um per step, the kind of motion the CLI's physics makes), then refitMoved()
@@ -287,40 +329,20 @@ BENCHMARK(BM_BvhRefitFull)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells
 // collision_us_per_query (refit charged to the queries). passes: share of steps that
 // read the vertices; reanchored: vertices per step whose leaves were refitted.
 void BM_BvhMovingTissue(benchmark::State& st) {
-  SurfaceMesh m = slabCells(static_cast<int>(st.range(0)));
-  const double margin = st.range(1) * 1e-3, amp = st.range(2) * 1e-3;
-  TriangleBvh bvh(m);
-  if (margin > 0) bvh.setMotionMargin(m, margin);
-  const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
-  std::vector<double> shape(rest.size());
-  for (std::size_t v = 0; v < rest.size(); ++v)
-    shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
-  const Segments segs = blades(1024);
-  std::vector<ld::collision::SurfaceHit> out;
-  std::size_t k = 0, reanchored = 0, hits = 0;
+  MovingScene sc(st);
   double lastW = 0.0;
   for (auto _ : st) {
     st.PauseTiming();
-    const double w =
-        amp * std::sin(2.0 * 3.14159 * static_cast<double>(k) / 200.0) - 1e-3 * static_cast<double>(k % 1000);
-    for (std::size_t v = 0; v < rest.size(); ++v) m.positions()[v].z() = rest[v].z() + w * shape[v];
+    const double w = sc.amp * std::sin(2.0 * 3.14159 * static_cast<double>(sc.k) / 200.0) -
+                     1e-3 * static_cast<double>(sc.k % 1000);
+    for (std::size_t v = 0; v < sc.rest.size(); ++v) sc.m.positions()[v].z() = sc.rest[v].z() + w * sc.shape[v];
     st.ResumeTiming();
     // range(3) = 1: with the physics' bound on the step's moves (Dynamics::maxMove).
     const double bound = st.range(3) ? std::abs(w - lastW) : std::numeric_limits<double>::infinity();
     lastW = w;
-    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), rest.size());
-    for (int q = 0; q < 4; ++q) {
-      const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
-      bvh.intersectSegment(m, s.first, s.second, out);
-      hits += out.size();
-    }
-    ++k;
+    sc.step(bound);
   }
-  const auto n = static_cast<double>(st.iterations());
-  st.counters["triangles"] = static_cast<double>(m.nFaces());
-  st.counters["reanchored"] = static_cast<double>(reanchored) / n;
-  st.counters["passes"] = margin > 0 ? static_cast<double>(bvh.motionPasses()) / n : 1.0;
-  st.counters["hits"] = static_cast<double>(hits) / n;
+  sc.counters(st);
 }
 BENCHMARK(BM_BvhMovingTissue)
     ->Args({50, 0, 100, 0})
@@ -344,44 +366,24 @@ BENCHMARK(BM_BvhMovingTissue)
 // scan over every vertex is most of the cost (BM_BvhMovingTissue's coherent sag instead
 // makes most passes full refits).
 void BM_BvhMovingTissueLocal(benchmark::State& st) {
-  SurfaceMesh m = slabCells(static_cast<int>(st.range(0)));
-  const double margin = st.range(1) * 1e-3, amp = st.range(2) * 1e-3;
-  TriangleBvh bvh(m);
-  if (margin > 0) bvh.setMotionMargin(m, margin);
-  const std::vector<Vector3d> rest(m.positions().begin(), m.positions().end());
-  std::vector<double> shape(rest.size());
-  for (std::size_t v = 0; v < rest.size(); ++v)
-    shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
-  const Segments segs = blades(1024);
-  std::vector<ld::collision::SurfaceHit> out;
-  std::size_t k = 0, reanchored = 0, hits = 0;
+  MovingScene sc(st);
   for (auto _ : st) {
     st.PauseTiming();
-    const double t = static_cast<double>(k);
+    const double t = static_cast<double>(sc.k);
     const double sag = 0.02 * std::sin(2.0 * 3.14159 * t / 400.0);
-    const double bump = amp * std::sin(2.0 * 3.14159 * t / 40.0);
+    const double bump = sc.amp * std::sin(2.0 * 3.14159 * t / 40.0);
     const Vector3d c(0.3 * kSide + std::fmod(0.01 * t, 0.4 * kSide), 0.5 * kSide, 0.0);
     double bound = 0.0;
-    for (std::size_t v = 0; v < rest.size(); ++v) {
-      const double r2 = (rest[v] - c).head<2>().squaredNorm();
-      const double z = rest[v].z() + sag * shape[v] + (r2 < 25.0 ? bump * (1.0 - r2 / 25.0) : 0.0);
-      bound = std::max(bound, std::abs(z - m.positions()[v].z()));
-      m.positions()[v].z() = z;
+    for (std::size_t v = 0; v < sc.rest.size(); ++v) {
+      const double r2 = (sc.rest[v] - c).head<2>().squaredNorm();
+      const double z = sc.rest[v].z() + sag * sc.shape[v] + (r2 < 25.0 ? bump * (1.0 - r2 / 25.0) : 0.0);
+      bound = std::max(bound, std::abs(z - sc.m.positions()[v].z()));
+      sc.m.positions()[v].z() = z;
     }
     st.ResumeTiming();
-    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), rest.size());
-    for (int q = 0; q < 4; ++q) {
-      const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
-      bvh.intersectSegment(m, s.first, s.second, out);
-      hits += out.size();
-    }
-    ++k;
+    sc.step(bound);
   }
-  const auto n = static_cast<double>(st.iterations());
-  st.counters["triangles"] = static_cast<double>(m.nFaces());
-  st.counters["reanchored"] = static_cast<double>(reanchored) / n;
-  st.counters["passes"] = margin > 0 ? static_cast<double>(bvh.motionPasses()) / n : 1.0;
-  st.counters["hits"] = static_cast<double>(hits) / n;
+  sc.counters(st);
 }
 BENCHMARK(BM_BvhMovingTissueLocal)
     ->Args({158, 0, 300})
