@@ -282,7 +282,8 @@ struct CutEngine::Impl {
       c.obj = obj;
       c.layout = ~std::uint64_t{0};  // no mesh has it: thinCacheFor starts afresh
     }
-    c.resize(nf, nv);
+    if (c.okGen.size() < nf) c.okGen.resize(nf, 0);
+    if (c.settledGen.size() < nv) c.settledGen.resize(nv, 0);
   }
 
   // ---- physics hooks ---------------------------------------------------------------
@@ -3213,7 +3214,7 @@ struct CutEngine::Impl {
 
   // Faces the flips' thinness test has passed, per object: a face is tested again only
   // once an edit re-set it (the journal lists it) or the caller moved vertices
-  // (see drift below); the cutter itself moves a vertex only when a groove bottom slides
+  // (motionCount); the cutter itself moves a vertex only when a groove bottom slides
   // (slideBottom un-marks its faces), so a face that passed keeps its shape until
   // then. Faces found thin are not remembered (a later flip may fix them). The result
   // is the one of testing every face around every edited vertex.
@@ -3224,61 +3225,28 @@ struct CutEngine::Impl {
   // bottom vertex) edge list. Testing a face earlier than improveAround would does not
   // change what happens: passing depends on the face's shape alone, and no flip is made
   // there; the flips are tried in the same order as before.
-  // Moving tissue (physics between samples) does not forget them all: while the caller
-  // bounds the moves (verticesMovedWithin), `drift` sums the bounds since the marks were
-  // new, and a face that passed at drift D with room r (thinRoom: how far its corners
-  // may move and it still passes) counts as passed until drift reaches D + r. Unbounded
-  // moves (object(), verticesMoved) forget them as before.
   struct ThinCache {
     int obj = -1;
     std::uint64_t layout = 0;
-    double drift = 0.0;  // mm any vertex may have moved since gen began (inf: unknown)
+    long motion = -1;
     std::size_t journalF = 0;
     std::uint32_t gen = 0;
     std::vector<std::uint32_t> okGen;       // per face index: gen when it passed
     std::vector<std::uint32_t> settledGen;  // per vertex index: gen when it was settled
-    std::vector<float> okUntil;             // per face: drift at which its pass expires
-    std::vector<float> settledUntil;        // per vertex: the least of its faces' okUntil
-    [[nodiscard]] bool passed(Face f) const {
-      return f.idx() < okGen.size() && okGen[f.idx()] == gen && okUntil[f.idx()] > drift;
-    }
-    // Passed now with `room` (thinRoom); returns when that expires.
-    float pass(Face f, double room) {
-      if (f.idx() >= okGen.size()) grow(okGen, okUntil, f.idx() + 1024);
+    [[nodiscard]] bool passed(Face f) const { return f.idx() < okGen.size() && okGen[f.idx()] == gen; }
+    void pass(Face f) {
+      if (f.idx() >= okGen.size()) okGen.resize(f.idx() + 1024, 0);
       okGen[f.idx()] = gen;
-      return okUntil[f.idx()] = roundedDown(drift + room);
     }
-    [[nodiscard]] float until(Face f) const { return okUntil[f.idx()]; }
-    [[nodiscard]] bool settled(Vertex v) const {
-      return v.idx() < settledGen.size() && settledGen[v.idx()] == gen && settledUntil[v.idx()] > drift;
-    }
-    void settle(Vertex v, float until) {
-      if (v.idx() >= settledGen.size()) grow(settledGen, settledUntil, v.idx() + 1024);
+    [[nodiscard]] bool settled(Vertex v) const { return v.idx() < settledGen.size() && settledGen[v.idx()] == gen; }
+    void settle(Vertex v) {
+      if (v.idx() >= settledGen.size()) settledGen.resize(v.idx() + 1024, 0);
       settledGen[v.idx()] = gen;
-      settledUntil[v.idx()] = until;
     }
     void unsettle(Vertex v) {
       if (v.isValid() && v.idx() < settledGen.size()) settledGen[v.idx()] = 0;
     }
-    void resize(std::size_t nf, std::size_t nv) {
-      grow(okGen, okUntil, nf);
-      grow(settledGen, settledUntil, nv);
-    }
-    static void grow(std::vector<std::uint32_t>& gens, std::vector<float>& untils, std::size_t n) {
-      if (gens.size() >= n) return;
-      gens.resize(n, 0);
-      untils.resize(n, 0.0f);
-    }
-    static float roundedDown(double x) {
-      const float f = static_cast<float>(x);
-      return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-    }
   };
-  // Moves of an object's vertices by at most d (mm; inf: unknown) for its flip marks.
-  void driftThinCache(int obj, double d) {
-    for (ThinCache& c : thinCaches)
-      if (c.obj == obj) c.drift += d;
-  }
   std::vector<ThinCache> thinCaches;
   // Journal entries (faces [from, to) of an object's journal at `layout`) that re-set
   // faces without changing their shape (extend's splitVertex: a corner becomes its copy
@@ -3300,13 +3268,10 @@ struct CutEngine::Impl {
     std::erase_if(keptShapes, [&](const KeptShape& k) { return indexOf(k.obj) < 0; });
     ThinCache& c = thinCacheEntry(obj);
     const auto journal = m.editedFaces();
-    // (Past the snapping distance most marks have expired: start afresh, which also
-    // keeps the float expiries fine.)
-    if (c.obj != obj || c.layout != m.layoutVersion() || !(c.drift <= p.snapDistance) ||
-        c.journalF > journal.size()) {
+    if (c.obj != obj || c.layout != m.layoutVersion() || c.motion != motionCount || c.journalF > journal.size()) {
       c.obj = obj;
       c.layout = m.layoutVersion();
-      c.drift = 0.0;
+      c.motion = motionCount;
       if (++c.gen == 0) {  // wrapped: forget every mark
         std::fill(c.okGen.begin(), c.okGen.end(), 0u);
         std::fill(c.settledGen.begin(), c.settledGen.end(), 0u);
@@ -3330,8 +3295,8 @@ struct CutEngine::Impl {
       for (std::size_t i = c.journalF; i < journal.size(); ++i) {
         const Face f = journal[i];
         if (m.isDeleted(f) || c.passed(f)) continue;
-        if (const double room = thinRoom(m, f, floor); room >= 0.0)
-          c.pass(f, room);
+        if (!thinnerThan(m, f, floor))
+          c.pass(f);
         else
           for (Vertex x : m.vertices(f)) c.unsettle(x);
       }
@@ -3348,12 +3313,6 @@ struct CutEngine::Impl {
       for (const auto& t : h.tracks)
         if (t.alive && t.object == obj && t.visited.count(x) && t.visited.count(y)) return true;
     return false;
-  }
-
-  // thinRoom of face f: negative when thinnerThan(m, f, h).
-  static double thinRoom(const SurfaceMesh& m, Face f, double h) {
-    const auto& v = m.vertices(f);
-    return cutting::thinRoom(m.position(v[0]), m.position(v[1]), m.position(v[2]), h);
   }
 
   // Smallest height under h, without square roots (checked around every edit).
@@ -3433,25 +3392,17 @@ struct CutEngine::Impl {
       if (thinTodo.size() < 2 * es.size()) thinTodo.resize(2 * es.size());  // (only grows: no refill)
       Face* todo = thinTodo.data();
       std::size_t n = 0;
-      float until = std::numeric_limits<float>::infinity();  // when v's faces' passes expire
       for (Edge ev : es)
         for (int s = 0; s < 2; ++s) {
           const Face f = m.face(ev, s);
-          if (!f.isValid()) continue;
-          if (!ok.passed(f))
-            todo[n++] = f;
-          else
-            until = std::min(until, ok.until(f));
+          if (f.isValid() && !ok.passed(f)) todo[n++] = f;
         }
       bool flipped = false, thin = false;
       for (std::size_t i = 0; i < n && !flipped; ++i) {
         const Face f = thinTodo[i];
-        if (ok.passed(f)) {
-          until = std::min(until, ok.until(f));
-          continue;
-        }
-        if (const double room = thinRoom(m, f, floor); room >= 0.0) {
-          until = std::min(until, ok.pass(f, room));
+        if (ok.passed(f)) continue;
+        if (!thinnerThan(m, f, floor)) {
+          ok.pass(f);
           continue;
         }
         thin = true;
@@ -3465,7 +3416,7 @@ struct CutEngine::Impl {
         flipped = tryFlip(obj, longest);  // edges of v changed: list them again
       }
       if (!flipped) {
-        if (!thin) ok.settle(v, until);  // every face around v has passed
+        if (!thin) ok.settle(v);  // every face around v has passed
         return;
       }
     }
@@ -3829,7 +3780,6 @@ TissueObject& CutEngine::object(int id) {
   // The caller may move vertices: the object's BVH is refitted before the next query.
   impl_->moved[static_cast<std::size_t>(i)] = 1;
   impl_->moveBound[static_cast<std::size_t>(i)] = std::numeric_limits<double>::infinity();
-  impl_->driftThinCache(id, std::numeric_limits<double>::infinity());
   ++impl_->motionCount;  // and the tracks' start and pending points move with it
   return impl_->objects[static_cast<std::size_t>(i)];
 }
@@ -3845,10 +3795,7 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
   impl_->noteMoved(static_cast<std::size_t>(i), vertices);
   // The tracks' start and pending points move with the tissue they are anchored to.
-  if (!vertices.empty()) {
-    impl_->driftThinCache(id, std::numeric_limits<double>::infinity());
-    ++impl_->motionCount;
-  }
+  if (!vertices.empty()) ++impl_->motionCount;
 }
 
 void CutEngine::verticesMoved(int id) { (void)object(id); }
@@ -3860,8 +3807,6 @@ void CutEngine::verticesMovedWithin(int id, double maxMove) {
   if (!(maxMove >= 0.0)) maxMove = std::numeric_limits<double>::infinity();  // NaN or negative: unknown
   impl_->moveBound[k] = impl_->moved[k] ? impl_->moveBound[k] + maxMove : maxMove;
   impl_->moved[k] = 1;
-  // (maxMove bounds each coordinate: a vertex moved at most sqrt(3) times it.)
-  impl_->driftThinCache(id, std::sqrt(3.0) * maxMove);
   ++impl_->motionCount;  // the tracks re-anchor to the tissue, as for object()
 }
 

@@ -12,22 +12,6 @@ using mesh::Edge;
 using mesh::Face;
 using mesh::Vertex;
 
-double thinRoom(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, double h) {
-  const Eigen::Vector3d ab = b - a, ac = c - a;
-  const double L2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
-  const double c2 = ab.cross(ac).squaredNorm();
-  if (c2 < h * h * L2) return -1.0;
-  // Corners moved by at most d change each edge vector by 2d: C = |ab × ac| loses at
-  // most 2d(|ab| + |ac|) + 4d² <= 4dL + 4d², and L grows by at most 2d. The height stays
-  // over h while C - 4dL - 4d² >= h(L + 2d): d up to the positive root of
-  // 4d² + (4L + 2h)d - (C - hL) = 0.
-  const double C = std::sqrt(c2), L = std::sqrt(L2);
-  const double D = C - h * L, B = 4.0 * L + 2.0 * h;
-  if (!(D > 0.0)) return 0.0;
-  const double d = 2.0 * D / (B + std::sqrt(B * B + 16.0 * D));
-  return std::max(0.0, 0.999 * d - 1e-12 * (1.0 + L));
-}
-
 bool isManifoldVertex(const mesh::SurfaceMesh& m, Vertex v) {
   const std::vector<Face> around = m.faces(v);
   if (around.size() <= 1) return true;

@@ -21,10 +21,4 @@ MeshQuality measureQuality(const mesh::SurfaceMesh& m);
 // True when the faces around v form a single fan (connected through edges at v).
 bool isManifoldVertex(const mesh::SurfaceMesh& m, mesh::Vertex v);
 
-// How far (mm) each corner of triangle (a, b, c) may move before its smallest height
-// (twice its area over its longest edge) could fall under h: a lower bound, exact
-// arithmetic's less a rounding margin, 0 when it is about h. Negative when the height is
-// under h now (the same test as the cutter's flips make: |ab × ac|² < h² L²).
-double thinRoom(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, double h);
-
 }  // namespace ld::cutting
