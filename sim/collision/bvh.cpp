@@ -234,13 +234,13 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
         stale_.push_back(v);
       }
     }
-    boxBlock(anchor_.data(), b, pad_);
+    boxBlock(anchor_.data(), b);
   } else {
-    boxBlock(X, b, pad_);
+    boxBlock(X, b);
   }
 }
 
-void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b, double padTotal) {
+void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b) {
   Node& n = nodes_[blockLeaf_[b]];
   const BlockVerts& bv = blockVerts_[b];
   if (bv.n == 0) {
@@ -262,7 +262,7 @@ void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b, double padTotal) 
     hz = _mm_max_sd(hz, z);
   }
   // roundDown / roundUp of (value -+ pad), two lanes at a time.
-  const __m128d pad = _mm_set1_pd(padTotal), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
+  const __m128d pad = _mm_set1_pd(pad_), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
   const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
   const auto down = [&](__m128d x) {
     x = _mm_sub_pd(x, pad);
@@ -284,8 +284,8 @@ void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b, double padTotal) 
     hi = hi.max(P[bv.v[j]].array());
   }
   for (int k = 0; k < 3; ++k) {
-    n.lo[k] = roundDown(lo[k] - padTotal);
-    n.hi[k] = roundUp(hi[k] + padTotal);
+    n.lo[k] = roundDown(lo[k] - pad_);
+    n.hi[k] = roundUp(hi[k] + pad_);
   }
 #endif
 }
@@ -662,7 +662,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // the anchors are the positions (just copied): the boxes are fitted from the
   // positions, the same values, without fitBlock's per-corner anchor test (which
   // cannot fire here and was about half of the refit's time).
-  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b, pad_);
+  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b);
   if (!innerLateSorted_) {
     std::sort(innerLate_.begin(), innerLate_.end(), std::greater<>());
     innerLateSorted_ = true;

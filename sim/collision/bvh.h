@@ -224,8 +224,8 @@ class TriangleBvh {
   void growAnchors(const mesh::SurfaceMesh& m);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
-  // The box of a block's corners read from P, grown by padTotal (no anchor test).
-  void boxBlock(const Eigen::Vector3d* P, std::uint32_t block, double padTotal);
+  // The box of a block's corners read from P, grown by the pad (no anchor test).
+  void boxBlock(const Eigen::Vector3d* P, std::uint32_t block);
   void fitInner(std::uint32_t i);
   void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
     if (nodes_[i].leaf()) {

@@ -873,17 +873,6 @@ struct CutEngine::Impl {
     return Vertex();
   }
 
-  // The blade's depth point under path vertex n in the rest frame: n's home plus the
-  // blade's offset from n now (as fillQuad places a new bottom vertex's home); NaN on an
-  // object without homes.
-  Vec3 restDepth(int obj, Vertex n, const Vec3& depth) {
-    if (tissue(obj)) {
-      SurfaceMesh& m = meshOf(obj);
-      if (auto home = m.getVertexProperty<Vec3>(physics::kHomeProp)) return home[n] + (depth - m.position(n));
-    }
-    return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-  }
-
   // ---- the cut front ---------------------------------------------------------------------
   // Vertices of the cut (path, copies, wall apexes) are shared by both layers of a cut-through.
   void mark(Track& tr, Vertex v) {
@@ -897,7 +886,12 @@ struct CutEngine::Impl {
   bool extend(Track& tr, Vertex N, const Vec3& depthN, bool lastStep = false) {
     SurfaceMesh& m = meshOf(tr.object);
     mark(tr, N);
-    const Vec3 restDepthN = restDepth(tr.object, N, depthN);
+    // The blade's depth point under N in the rest frame: N's home plus the blade's offset
+    // from N now (as fillQuad places a new bottom vertex's home); NaN without homes.
+    const auto home =
+        tissue(tr.object) ? m.getVertexProperty<Vec3>(physics::kHomeProp) : mesh::VertexProperty<Vec3>();
+    const Vec3 restDepthN =
+        home ? Vec3(home[N] + (depthN - m.position(N))) : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
     if (!tr.tip.isValid()) {
       tr.tip = N;
       tr.first = N;
@@ -1023,8 +1017,6 @@ struct CutEngine::Impl {
         // kept in the rest frame: physics opens the cut and carries the bottom vertex
         // off the world's line (0.27 mm on the expert's straight line, against a
         // tolerance of 0.09), and every step would make a new one.
-        const auto home =
-            tissue(tr.object) ? m.getVertexProperty<Vec3>(physics::kHomeProp) : mesh::VertexProperty<Vec3>();
         const bool rest = home && restDepthN.allFinite() && tr.tipRestDepth.allFinite();
         const Vec3 fo = rest ? home[o] : po, fN = rest ? restDepthN : depthN;
         Vec3 along = fN - (rest ? tr.tipRestDepth : tr.tipDepth);
