@@ -1432,7 +1432,10 @@ struct CutEngine::Impl {
     // o slides along the bottom's line only from a place on it (tissue moved by physics
     // may have carried it off: such a slide would reshape its walls at once).
     if (!oOnLine) return -1.0;
-    auto quality = [&](double t) {
+    // With a bound, the loop may stop as soon as the value is below it: the caller only
+    // needs to know that it is (the value returned is then below the bound, above the
+    // true one, and is never kept as a best).
+    auto quality = [&](double t, double bound) {
       const Vec3 q = po + t * (depthN - po);
       if (!inReachAt(t)) return -1.0;
       double worst = 0.0, h2 = 0.0;
@@ -1445,29 +1448,33 @@ struct CutEngine::Impl {
         shape2(q, sf.a, sf.b, c, sf.ab2, s2, fh2);
         if (fh2 < std::min(thr2, sf.h2)) return -1.0;
         if (s2 < sf.sin2) worst = std::min(worst, s2);
+        if (worst < bound) return worst;
       }
       return worst;
     };
+    constexpr double kNoBound = -2.0;  // below every value, -1 included
     // Golden-section search on t in [0, 1] (the quality is a minimum of triangles that
-    // get worse and the new one that gets better as o moves on).
+    // get worse and the new one that gets better as o moves on). Each new point only
+    // has to be compared with the one it meets: its evaluation is bounded by that one's
+    // value (same comparisons, so the same search, as with full evaluations).
     constexpr double g = 0.6180339887498949;
     double lo = 0.0, hi = 1.0;
-    double bestT = 1.0, bestQ = quality(1.0);
+    double bestT = 1.0, bestQ = quality(1.0, kNoBound);
     double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
-    double q1 = quality(x1), q2 = quality(x2);
+    double q1 = quality(x1, kNoBound), q2 = quality(x2, q1);
     for (int it = 0; it < kSlideSearchSteps; ++it) {
       if (q1 < q2) {
         lo = x1;
         x1 = x2;
         q1 = q2;
         x2 = lo + g * (hi - lo);
-        q2 = quality(x2);
+        q2 = quality(x2, q1);
       } else {
         hi = x2;
         x2 = x1;
         q2 = q1;
         x1 = hi - g * (hi - lo);
-        q1 = quality(x1);
+        q1 = quality(x1, q2);
       }
     }
     for (auto [t, q] : {std::pair{x1, q1}, std::pair{x2, q2}})
