@@ -67,7 +67,11 @@ PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh, Options options) : params
 }
 
 PhysicsSession::~PhysicsSession() {
-  stop_ = true;
+  {
+    std::lock_guard lock(queueMutex_);  // a resting loop checks stop_ under it
+    stop_ = true;
+  }
+  queuePosted_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
@@ -97,9 +101,10 @@ void PhysicsSession::post(Command c) {
   std::lock_guard lock(queueMutex_);
   queue_.push_back(std::move(c));
   ++posted_;
+  queuePosted_.notify_one();
 }
 
-void PhysicsSession::drain() {
+bool PhysicsSession::drain() {
   std::vector<Command> todo;
   {
     std::lock_guard lock(queueMutex_);
@@ -111,6 +116,13 @@ void PhysicsSession::drain() {
     done_ += todo.size();
   }
   queueDone_.notify_all();
+  return !todo.empty();
+}
+
+bool PhysicsSession::stillStep() const {
+  if (strokeOpen_ && holdWhileCutting_) return true;  // held: stepAll did nothing
+  return std::all_of(bodies_.begin(), bodies_.end(),
+                     [](const Body& b) { return b.dynamics.maxMove <= kRestMove; });  // +inf when unknown
 }
 
 void PhysicsSession::sync() {
@@ -151,10 +163,29 @@ void PhysicsSession::run() {
 
   auto deadline = Clock::now() + period;
   const auto window = static_cast<std::uint64_t>(std::max(1.0, options_.rateHz));  // one second of steps
+  std::uint64_t stillSteps = 0;
   while (!stop_.load()) {
-    drain();
+    if (drain()) stillSteps = 0;
+    if (stillSteps >= window) {
+      // At rest: no step would move anything, so none runs (an idle workstation keeps
+      // no core busy) until a command comes; the clock runs on in whole steps.
+      if (!resting_.exchange(true)) restSince_ = bodies_[0].dynamics.time;
+      {
+        std::unique_lock lock(queueMutex_);
+        queuePosted_.wait_for(lock, std::chrono::milliseconds(20), [&] { return !queue_.empty() || stop_.load(); });
+      }
+      for (const auto now = Clock::now(); deadline <= now; deadline += period)
+        for (auto& b : bodies_) b.dynamics.time += dt;
+      if (Clock::now() - lastPublish >= publishPeriod) {
+        publish(Publish::IfMoved);
+        lastPublish = Clock::now();
+      }
+      continue;
+    }
+    resting_ = false;
     const auto t0 = Clock::now();
     stepAll(dt);
+    stillSteps = stillStep() ? stillSteps + 1 : 0;
     noteStep(std::chrono::duration<double, std::micro>(Clock::now() - t0).count(), window);
     if (Clock::now() - lastPublish >= publishPeriod) {
       publish(Publish::IfMoved);
@@ -222,6 +253,7 @@ PhysicsSession::Stats PhysicsSession::stats() const {
   s.implicit = implicit_.load();
   s.resets = resets_.load();
   s.nanFrames = nanFrames_.load();
+  s.resting = resting_.load();
   return s;
 }
 
@@ -536,8 +568,11 @@ QString PhysicsSession::status() const {
   if (!settled_.load())
     return QStringLiteral("Physics: settling %1%").arg(static_cast<int>(100.0 * settleProgress_.load()));
   const Stats st = stats();
-  QString line = QStringLiteral("Physics: t = %1 s, step %2 µs (max %3), late %4 of %5, NaN %6")
-                     .arg(simTime(), 0, 'f', 1)
+  // At rest the line does not change (no repaint of an idle window): the time it came
+  // to rest instead of the running clock.
+  QString line = QStringLiteral("Physics: %1 s, step %2 µs (max %3), late %4 of %5, NaN %6")
+                     .arg(st.resting ? QStringLiteral("at rest since t = %1").arg(restSince_.load(), 0, 'f', 1)
+                                     : QStringLiteral("t = %1").arg(simTime(), 0, 'f', 1))
                      .arg(st.meanStepUs, 0, 'f', 0)
                      .arg(st.maxStepUs, 0, 'f', 0)
                      .arg(st.late)

@@ -138,6 +138,7 @@ class PhysicsSession {
     std::uint64_t implicit = 0;   // ... of which finished with the implicit method
     std::uint64_t resets = 0;     // ... or by zeroing velocities (last resort)
     std::uint64_t nanFrames = 0;  // published frames with a non-finite position
+    bool resting = false;         // at rest: the loop sleeps until a command comes
   };
   [[nodiscard]] Stats stats() const;
 
@@ -145,6 +146,11 @@ class PhysicsSession {
   [[nodiscard]] double settleProgress() const { return settleProgress_.load(); }
   [[nodiscard]] double simTime() const;
   [[nodiscard]] QString status() const;  // one line for the status bar
+
+  // A step that moves no vertex more than this [mm] (physics::Dynamics::maxMove) counts
+  // toward rest; after a second of such steps the loop stops stepping (the tissue would
+  // not move a visible amount: 0.1 µm/s) and only keeps the clock, until a command.
+  static constexpr double kRestMove = 1e-7;
 
  private:
   struct Body {
@@ -157,7 +163,8 @@ class PhysicsSession {
 
   void post(Command c);
   void run();
-  void drain();
+  bool drain();                          // true when commands ran
+  [[nodiscard]] bool stillStep() const;  // the last step moved nothing (sim thread)
   void stepAll(double dt);
   void noteStep(double us, std::uint64_t window);  // sim thread
   // Always: a new frame for the next update(). IfMoved: only when a vertex moved more
@@ -186,7 +193,7 @@ class PhysicsSession {
   std::vector<std::uint32_t> patch_;
 
   std::mutex queueMutex_;
-  std::condition_variable queueDone_;
+  std::condition_variable queueDone_, queuePosted_;
   std::vector<Command> queue_;
   std::uint64_t posted_ = 0, done_ = 0;
 
@@ -197,8 +204,8 @@ class PhysicsSession {
   std::uint64_t taken_ = 0;
   std::vector<std::pair<int, std::uint64_t>> takenTopology_;
 
-  std::atomic<bool> stop_{false}, settled_{false};
-  std::atomic<double> settleProgress_{0.0};
+  std::atomic<bool> stop_{false}, settled_{false}, resting_{false};
+  std::atomic<double> settleProgress_{0.0}, restSince_{0.0};
   std::atomic<long> trianglesCut_{0};
   std::atomic<int> objectCount_{1};
   std::atomic<double> pushForce_{0.0};

@@ -208,4 +208,38 @@ TEST(PhysicsSession, ATissueAtRestPublishesNoFramesUntilItMoves) {
   session.release();
 }
 
+// At rest the loop stops stepping (an idle workstation keeps no core busy) while the
+// clock runs on; a command wakes it and the tissue follows the push as before.
+TEST(PhysicsSession, ATissueAtRestSleepsUntilACommandWithItsClockRunning) {
+  PhysicsSession session(ld::physics::makeSlab(40.0, 30.0, 5.0, 2.5));
+  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
+  ASSERT_TRUE(waitFor([&] { return session.stats().resting; })) << "the settled slab never came to rest";
+  const QString line = session.status();
+  EXPECT_TRUE(line.startsWith("Physics: at rest since t =")) << line.toStdString();
+  const std::uint64_t steps0 = session.stats().steps;
+  const double t0 = session.simTime();
+  ASSERT_TRUE(waitFor([&] { return session.simTime() > t0 + 0.1; })) << "the clock stopped at rest";
+  EXPECT_EQ(session.stats().steps, steps0) << "steps ran while at rest";
+  EXPECT_TRUE(session.stats().resting);
+  EXPECT_EQ(session.status(), line) << "the idle status line changed (a repaint)";
+
+  RenderMesh now;
+  bool topo = false;
+  session.sync();
+  ASSERT_TRUE(session.update(now, topo));
+  std::uint32_t top = 0;
+  for (std::uint32_t v = 0; v < now.positions.size(); ++v)
+    if (now.positions[v][2] > now.positions[top][2]) top = v;
+  const float z0 = now.positions[top][2];
+  const Eigen::Vector3d target(now.positions[top][0], now.positions[top][1], z0 - 3.0);
+  ASSERT_TRUE(waitFor([&] {
+    session.pushToward(top, target);
+    session.update(now, topo);
+    return now.positions[top][2] < z0 - 0.5F;
+  })) << "a push did not wake the tissue";
+  EXPECT_GT(session.stats().steps, steps0);
+  EXPECT_FALSE(session.stats().resting);
+  session.release();
+}
+
 }  // namespace
