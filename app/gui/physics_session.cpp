@@ -169,7 +169,10 @@ void PhysicsSession::run() {
     if (stillSteps >= window) {
       // At rest: no step would move anything, so none runs (an idle workstation keeps
       // no core busy) until a command comes; the clock runs on in whole steps.
-      if (!resting_.exchange(true)) restSince_ = bodies_[0].dynamics.time;
+      if (!resting_.load()) {
+        restSince_ = bodies_[0].dynamics.time;  // first: a status() that sees resting_ reads it
+        resting_ = true;
+      }
       {
         std::unique_lock lock(queueMutex_);
         queuePosted_.wait_for(lock, std::chrono::milliseconds(20), [&] { return !queue_.empty() || stop_.load(); });
