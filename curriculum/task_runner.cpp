@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <unordered_set>
@@ -465,6 +466,10 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   int lastObject = -1;
   mesh::Face hint;     // face of the previous cut point (local search)
   mesh::Face surface;  // the last surface (not wall) face the cut point was on
+  std::vector<std::size_t> unsure;       // moving tissue: crossings not yet confirmed (drawn segments)
+  int followed = -1, followedEdge = -1;  // the track the cut path follows, and its edge
+  std::vector<int> seen;                 // the tracks of the previous cutting sample
+  std::vector<int> passed;               // tracks that ran beside the followed one after it ended
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
@@ -486,6 +491,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     lastRaw.reset();
     lastOff.reset();
     lastOnPath = false;
+    unsure.clear();  // a crossing the cut did not go on from is not one
   };
   // The cut points the engine reports for this hand's sample: the cut path follows
   // the one nearest the working point (a hook descending through the surface also
@@ -500,14 +506,38 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   // blade's point is the cut's pending point and stays the cut path.
   auto recordCut = [&](double t, const cutting::StepResult& step, const Eigen::Vector3d& ref) {
     const std::vector<cutting::CutPoint>& cps = step.cutPoints;
-    if (cps.empty()) {
+    // The cut path follows one cutting edge's cut: when the track it followed ends
+    // while a track of the hand's other edge that ran beside it goes on (the hook's
+    // foot, cutting on as the blade lifts out), that is not its continuation and is
+    // not recorded (a new track is: a restart, or a layer met deeper on).
+    std::vector<int> ids;
+    for (const auto& c : cps) ids.push_back(c.track);
+    auto has = [](const std::vector<int>& v, int id) { return std::find(v.begin(), v.end(), id) != v.end(); };
+    auto nearest = [&] {
+      std::optional<std::size_t> best;
+      for (std::size_t i = 0; i < cps.size(); ++i)
+        if (!has(passed, cps[i].track) &&
+            (!best || (cps[i].point - ref).squaredNorm() < (cps[*best].point - ref).squaredNorm()))
+          best = i;
+      return best;
+    };
+    std::optional<std::size_t> pick = nearest();
+    if (rest && pick && lastRaw && followed >= 0 && cps[*pick].segment != followedEdge && !has(ids, followed) &&
+        has(seen, cps[*pick].track)) {
+      for (const auto& c : cps)
+        if (c.segment != followedEdge && has(seen, c.track)) passed.push_back(c.track);
+      pick = nearest();
+    }
+    seen = ids;
+    if (cps.empty()) passed.clear();
+    if (!pick) {
       if (lastRaw) endCut(t);
       return;
     }
-    std::size_t ci = 0;
-    for (std::size_t i = 1; i < cps.size(); ++i)
-      if ((cps[i].point - ref).squaredNorm() < (cps[ci].point - ref).squaredNorm()) ci = i;
+    const std::size_t ci = *pick;
     const cutting::CutPoint* cp = &cps[ci];
+    followed = cp->track;
+    followedEdge = cp->segment;
     // The engine reports one preview segment per cut point, in the same order.
     const bool tip = rest && step.preview.size() == cps.size();
     const Eigen::Vector3d src = tip ? step.preview[ci].from : cp->point;
@@ -541,12 +571,31 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     // and a path may run along them) touches it: whether the cut crossed is decided
     // when it leaves, from the last point it had off the path (touching and going back
     // is no crossing; the half-open segment test alone would count leaving the path).
-    const bool onPath = cp->object == obj && (rest ? drawn.distanceAtRest(point) : drawn.distance(tissue(), point)) <=
-                                                 1e-9 * (1.0 + point.cwiseAbs().maxCoeff());
+    const double toPath = cp->object != obj ? std::numeric_limits<double>::infinity()
+                          : rest            ? drawn.distanceAtRest(point)
+                                            : drawn.distance(tissue(), point);
+    const bool onPath = toPath <= 1e-9 * (1.0 + point.cwiseAbs().maxCoeff());
     if (lastRaw && cp->object == obj && !onPath && (!lastOnPath || lastOff)) {
       const Eigen::Vector3d& from = lastOnPath ? *lastOff : *lastRaw;
-      const int n = rest ? drawn.cutAcrossAtRest(from, point, normal) : drawn.cutAcross(tissue(), from, point, normal);
+      int n = 0;
+      if (rest) {
+        const std::vector<std::size_t> crossed = drawn.crossingsAtRest(from, point, normal);
+        unsure.insert(unsure.end(), crossed.begin(), crossed.end());
+      } else {
+        n = drawn.cutAcross(tissue(), from, point, normal);
+      }
       for (int k = 0; k < n; ++k) live.addPathCrossing(t);
+    }
+    // On the moving tissue the cut recorded at rest wavers about the line it follows
+    // (the tissue rings under the blade; the tips snap to the mesh), so a crossing
+    // stands once the cut is crossingBandMm beyond the line; crossed back before that,
+    // the two cancel.
+    if (rest && !unsure.empty() && toPath >= opt.crossingBandMm) {
+      if (unsure.size() % 2 == 1) {
+        drawn.markCut(unsure.back());
+        live.addPathCrossing(t);
+      }
+      unsure.clear();
     }
     if (!onPath) lastOff = point;
     lastOnPath = onPath;
@@ -612,7 +661,14 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     const cutting::StepResult step = engine.step(s.hand, s.tool, s.pose);
     if (step.topologyChanged) followEdits();
     const Eigen::Vector3d ref = workingPoint(s.tool, s.pose, engine.params().tool);
-    const std::optional<Eigen::Vector3d> hit = cuttingContact(step.contacts, ref);
+    // A blade whose cut goes on (the engine reports a cut point) is in the tissue even
+    // where no surface meets its edges: on a moving tissue the cut's lips retract from
+    // it and it sits in the opening (the simulated tissue does not press on the
+    // blade). Lifted out, its cuts end and the contact with them.
+    std::optional<Eigen::Vector3d> hit = cuttingContact(step.contacts, ref);
+    if (!hit && rest)
+      for (const auto& c : step.cutPoints)
+        if (!hit || (c.point - ref).squaredNorm() < (*hit - ref).squaredNorm()) hit = c.point;
     const bool now = hit.has_value();
     if (hs.have && hs.last.tool == s.tool && now != hs.contact && s.t > hs.last.t) {
       // Contact starts or ends between the two samples: find when (sampling-rate

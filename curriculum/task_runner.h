@@ -44,6 +44,10 @@ struct RunOptions {
   // cutter loses tracks on tissue moving under it, which would count against the
   // trainee), and the force still feels the cut. `task run` uses this by default.
   bool holdUnderBlade = false;
+  // Physics on (moving): a crossing of the drawn path stands once the cut recorded at
+  // rest is this far beyond the line (mm; README: the tissue's ringing and the tips'
+  // snapping move it by up to ~0.2 mm either way).
+  double crossingBandMm = 0.25;
   double physicsDt = 1e-3;         // s, the longest step (the workstation's 1 kHz loop)
   double graspStiffness = 1000.0;  // mN/mm, penalty spring per held vertex
   double graspRadius = 1.5;        // mm: vertices this near the grasp point are held

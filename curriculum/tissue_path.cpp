@@ -369,10 +369,10 @@ bool segmentsCross(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eig
 }
 
 template <class At>
-int TissuePath::cutAcrossWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                              const Eigen::Vector3d& n, double maxGap) {
-  if ((b - a).squaredNorm() <= 0) return 0;
-  int count = 0;
+std::vector<std::size_t> TissuePath::crossedWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                                 const Eigen::Vector3d& n, double maxGap) const {
+  std::vector<std::size_t> out;
+  if ((b - a).squaredNorm() <= 0) return out;
   const Eigen::Vector3d lo = a.cwiseMin(b).array() - maxGap, hi = a.cwiseMax(b).array() + maxGap;
   Eigen::Vector3d prev;
   for (std::size_t i = 0; i + 1 < pts_.size(); ++i) {
@@ -381,22 +381,33 @@ int TissuePath::cutAcrossWith(const At& at, const Eigen::Vector3d& a, const Eige
     prev = d;
     if (pts_[i].stop || pts_[i].freed || pts_[i + 1].freed) continue;
     if ((c.cwiseMax(d).array() < lo.array()).any() || (c.cwiseMin(d).array() > hi.array()).any()) continue;
-    if (segmentsCross(a, b, c, d, n, maxGap)) {
-      pts_[i].cut = true;
-      ++count;
-    }
+    if (segmentsCross(a, b, c, d, n, maxGap)) out.push_back(i);
   }
-  return count;
+  return out;
 }
 
 int TissuePath::cutAcross(const SurfaceMesh& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                           const Eigen::Vector3d& n, double maxGap) {
-  return cutAcrossWith([&](std::size_t i) { return pointAt(m, i); }, a, b, n, maxGap);
+  const std::vector<std::size_t> crossed = crossedWith([&](std::size_t i) { return pointAt(m, i); }, a, b, n, maxGap);
+  for (std::size_t i : crossed) markCut(i);
+  return static_cast<int>(crossed.size());
 }
 
 int TissuePath::cutAcrossAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
                                 double maxGap) {
-  return cutAcrossWith([&](std::size_t i) -> const Eigen::Vector3d& { return rest_[i]; }, a, b, n, maxGap);
+  const std::vector<std::size_t> crossed = crossingsAtRest(a, b, n, maxGap);
+  for (std::size_t i : crossed) markCut(i);
+  return static_cast<int>(crossed.size());
+}
+
+std::vector<std::size_t> TissuePath::crossingsAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                                     const Eigen::Vector3d& n, double maxGap) const {
+  return crossedWith([&](std::size_t i) -> const Eigen::Vector3d& { return rest_[i]; }, a, b, n, maxGap);
+}
+
+void TissuePath::markCut(std::size_t segment) {
+  if (segment >= pts_.size()) throw PathError("markCut: no such path segment");
+  pts_[segment].cut = true;
 }
 
 template <class At>

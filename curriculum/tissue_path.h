@@ -97,6 +97,11 @@ class TissuePath {
   // crossed where the blade crosses it on the tissue, not in the world.
   int cutAcrossAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
                       double maxGap = 1.0);
+  // The path segments (index of their first point) the same cut crosses at rest, in
+  // path order, none marked: the caller decides which crossings stand (markCut).
+  [[nodiscard]] std::vector<std::size_t> crossingsAtRest(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                                         const Eigen::Vector3d& n, double maxGap = 1.0) const;
+  void markCut(std::size_t segment);
   // Distance of p to the path's segments that cutAcross / cutAcrossAtRest test (a cut
   // point on the path touches it; whether the cut crossed is known when it leaves).
   [[nodiscard]] double distance(const mesh::SurfaceMesh& m, const Eigen::Vector3d& p) const;
@@ -109,8 +114,8 @@ class TissuePath {
   [[nodiscard]] Eigen::Vector3d pointAt(const mesh::SurfaceMesh& m, std::size_t i) const;
 
   template <class At>
-  int cutAcrossWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& n,
-                    double maxGap);
+  [[nodiscard]] std::vector<std::size_t> crossedWith(const At& at, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                                     const Eigen::Vector3d& n, double maxGap) const;
 
   template <class At>
   [[nodiscard]] double distanceWith(const At& at, const Eigen::Vector3d& p) const;

@@ -2,6 +2,7 @@
 // path closely and steadily, and novices with more lateral wander, pauses and lifts
 // (fixed seeds). Every metric must move the right way as the noise grows, the score
 // must rank them, and resampling the same motion must not change the metrics.
+#include <algorithm>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -236,6 +237,62 @@ TEST(Validity, HeldStillPhysicsGivesTheGraspForceAndTheStillCut) {
     EXPECT_TRUE(still.assessment.passed) << (still.assessment.failures.empty() ? "" : still.assessment.failures[0]);
     EXPECT_FALSE(novice.assessment.passed);
   }
+}
+
+// The expert's trajectory with the cutting hand's tip moved by `shift(t)`.
+devices::Trajectory shifted(devices::Trajectory tr, const std::function<Eigen::Vector3d(double)>& shift) {
+  for (auto& s : tr.samples)
+    if (s.tool != instruments::Tool::Grasper) s.pose.tip += shift(s.t);
+  return tr;
+}
+
+// 0 before a, 1 after b, smooth between.
+double ramp(double t, double a, double b) {
+  const double u = std::clamp((t - a) / (b - a), 0.0, 1.0);
+  return u * u * (3.0 - 2.0 * u);
+}
+
+RunResult movingRun(const std::string& id, const devices::Trajectory& tr) {
+  const Loaded& l = load(id);
+  RunOptions o;
+  o.physics = true;  // moving: the cut recorded on the tissue at rest
+  return runTask(l.task, l.mesh, tr, o);
+}
+
+TEST(Validity, ExpertOnMovingTissueIsNotChargedForTheSimulationsArtefacts) {
+  // The expert (the CLI's script: seed 1, 1 kHz) on the curves with the tissue moving
+  // under the blade. Before: slab-gentle-curve 2 path breaks (the cut recorded at rest
+  // wavering 0.07 mm across the line) and a cut distance of 1.11 mm (the hook's foot's
+  // cut recorded after the blade's cut had ended); slab-s-curve 12 path breaks.
+  for (const char* id : {"slab-gentle-curve", "slab-s-curve"}) {
+    SCOPED_TRACE(id);
+    const Loaded& l = load(id);
+    const RunResult r = movingRun(id, scriptedAttempt(l.task, l.mesh, traineeProfile(0, 1), 1000));
+    ASSERT_TRUE(r.physics.on);
+    ASSERT_FALSE(r.physics.heldStill);
+    EXPECT_EQ(r.metrics.pathBreaks, 0);
+    EXPECT_EQ(pieces(r.drawn).size(), 1u);
+    EXPECT_LT(r.metrics.cutDistanceMaxMm, 0.6);
+    // Contact breaks are not asserted: after the cut has ended, a lip curled up above
+    // the surface can still meet the rising hook for a few ms (one break on one of the
+    // two tasks, which one depending on the physics' last bits; README: what is left).
+  }
+}
+
+TEST(Validity, RealBreaksStillCountOnMovingTissue) {
+  const Loaded& l = load("slab-gentle-curve");
+  const devices::Trajectory expert = scriptedAttempt(l.task, l.mesh, traineeProfile(0, 1), 1000);
+  // The hook lifted 4 mm out of the tissue mid-path and put back.
+  const RunResult lifted = movingRun("slab-gentle-curve", shifted(expert, [](double t) {
+                                       return Eigen::Vector3d(0, 0, 4.0 * (ramp(t, 4.0, 4.1) - ramp(t, 4.5, 4.6)));
+                                     }));
+  EXPECT_GE(lifted.metrics.contactBreaks, 1);
+  // The cut 1 mm to one side of the line, then 1 mm to the other: one crossing.
+  const RunResult crossed =
+      movingRun("slab-gentle-curve",
+                shifted(expert, [](double t) { return Eigen::Vector3d(0, 1.0 - 2.0 * ramp(t, 5.0, 5.3), 0); }));
+  EXPECT_EQ(crossed.metrics.pathBreaks, 1);
+  EXPECT_EQ(pieces(crossed.drawn).size(), 2u);
 }
 
 }  // namespace
