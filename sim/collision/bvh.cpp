@@ -244,13 +244,44 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
 namespace {
 #if defined(__SSE2__)
 // A point's (x, y) and z as doubles (float anchors widened exactly).
-inline void loadPoint(const Vector3d& p, __m128d& xy, __m128d& z) {
-  xy = _mm_loadu_pd(p.data());
-  z = _mm_load_sd(p.data() + 2);
+// Min and max of n > 0 points P[v[j]], as doubles: (x, y) and z.
+struct Extent {
+  __m128d lxy, hxy, lz, hz;
+};
+inline Extent extentOf(const Vector3d* P, const std::uint32_t* v, std::uint32_t n) {
+  const double* p = P[v[0]].data();
+  Extent e{_mm_loadu_pd(p), _mm_loadu_pd(p), _mm_load_sd(p + 2), _mm_load_sd(p + 2)};
+  for (std::uint32_t j = 1; j < n; ++j) {
+    p = P[v[j]].data();
+    const __m128d xy = _mm_loadu_pd(p), z = _mm_load_sd(p + 2);
+    e.lxy = _mm_min_pd(e.lxy, xy);
+    e.hxy = _mm_max_pd(e.hxy, xy);
+    e.lz = _mm_min_sd(e.lz, z);
+    e.hz = _mm_max_sd(e.hz, z);
+  }
+  return e;
 }
-inline void loadPoint(const Eigen::Vector3f& p, __m128d& xy, __m128d& z) {
-  xy = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p.data()))));
-  z = _mm_cvtss_sd(_mm_setzero_pd(), _mm_load_ss(p.data() + 2));
+// Float points (the anchors): min and max in float, widened once (exact, monotonic: the
+// same as the extent of the widened points).
+inline Extent extentOf(const Eigen::Vector3f* P, const std::uint32_t* v, std::uint32_t n) {
+  const auto load = [&](std::uint32_t j, __m128& xy, __m128& z) {
+    const float* p = P[v[j]].data();
+    xy = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
+    z = _mm_load_ss(p + 2);
+  };
+  __m128 lxy, lz;
+  load(0, lxy, lz);
+  __m128 hxy = lxy, hz = lz;
+  for (std::uint32_t j = 1; j < n; ++j) {
+    __m128 xy, z;
+    load(j, xy, z);
+    lxy = _mm_min_ps(lxy, xy);
+    hxy = _mm_max_ps(hxy, xy);
+    lz = _mm_min_ss(lz, z);
+    hz = _mm_max_ss(hz, z);
+  }
+  const __m128d zero = _mm_setzero_pd();
+  return {_mm_cvtps_pd(lxy), _mm_cvtps_pd(hxy), _mm_cvtss_sd(zero, lz), _mm_cvtss_sd(zero, hz)};
 }
 #endif
 }  // namespace
@@ -267,17 +298,7 @@ void TriangleBvh::boxBlock(const Point* P, std::uint32_t b) {
     return;
   }
 #if defined(__SSE2__)
-  __m128d lxy, lz;
-  loadPoint(P[bv.v[0]], lxy, lz);
-  __m128d hxy = lxy, hz = lz;
-  for (std::uint32_t j = 1; j < bv.n; ++j) {
-    __m128d xy, z;
-    loadPoint(P[bv.v[j]], xy, z);
-    lxy = _mm_min_pd(lxy, xy);
-    hxy = _mm_max_pd(hxy, xy);
-    lz = _mm_min_sd(lz, z);
-    hz = _mm_max_sd(hz, z);
-  }
+  const auto [lxy, hxy, lz, hz] = extentOf(P, bv.v, bv.n);
   // roundDown / roundUp of (value -+ pad), two lanes at a time.
   const __m128d pad = _mm_set1_pd(pad_), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
   const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
@@ -680,7 +701,8 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
     static_assert(sizeof(Vector3d) == 3 * sizeof(double) && sizeof(Eigen::Vector3f) == 3 * sizeof(float));
     anchor_.resize(m.verticesSize());
     slack_ = margin_;
-    if (!anchor_.empty()) slack_ -= detail::anchorCoordinates(P[0].data(), anchor_[0].data(), 3 * anchor_.size());
+    if (!anchor_.empty())
+      slack_ -= detail::anchorCoordinates(activeScanKernel(), P[0].data(), anchor_[0].data(), 3 * anchor_.size());
     for (std::uint32_t b = 0; b < nb; ++b) boxBlock(anchor_.data(), b);
   } else {
     for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b);

@@ -31,9 +31,10 @@ namespace detail {
 std::size_t scanQuietBlocks(ScanKernel k, const double* x, const float* a, std::size_t b, std::size_t nb, double theta,
                             double& worst);
 
-// a[i] = float(x[i]) (to nearest) for i < n; returns the largest |x[i] - a[i]| (NaN
-// differences are skipped: such a vertex is re-anchored by every pass anyway).
-double anchorCoordinates(const double* x, float* a, std::size_t n);
+// a[i] = float(x[i]) (to nearest) for i < n with build k; returns the largest
+// |x[i] - a[i]| (NaN differences are skipped, as a full refit always did: such a vertex
+// is re-anchored by every pass anyway).
+double anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n);
 
 }  // namespace detail
 }  // namespace ld::collision

@@ -284,21 +284,29 @@ TEST(TriangleBvh, ScanKernelsFindEveryLoudCoordinate) {
 }
 
 // Anchoring: each coordinate rounded to the nearest float, and the largest rounding
-// returned (the tree's grow starts from it), odd counts included.
+// returned (the tree's grow starts from it), in every build and for every count (the
+// vector bodies and the tails); the largest rounding placed at each index in turn.
 TEST(TriangleBvh, AnchorCoordinatesRoundToNearestAndReportTheError) {
   std::mt19937_64 rng(22);
   std::uniform_real_distribution<double> P(-1000.0, 1000.0);
-  for (std::size_t n :
-       {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{3}, std::size_t{7}, std::size_t{300}}) {
-    std::vector<double> x(n);
-    for (double& v : x) v = P(rng);
-    std::vector<float> a(n, -1.0f);
-    double want = 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-      want = std::max(want, std::abs(x[i] - static_cast<double>(static_cast<float>(x[i]))));
-    EXPECT_EQ(detail::anchorCoordinates(x.data(), a.data(), n), want) << n;
-    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(a[i], static_cast<float>(x[i])) << i;
-  }
+  for (std::size_t n = 0; n <= 37; ++n)
+    for (std::size_t p = 0; p < std::max<std::size_t>(n, 1); ++p) {
+      // Floats exactly (no rounding) but for a random one and the one at p, which
+      // rounds by more.
+      std::vector<double> x(n);
+      for (double& v : x) v = static_cast<double>(static_cast<float>(P(rng)));
+      if (n > 1) x[(p + 1 + rng() % (n - 1)) % n] += 1e-6;
+      if (n > 0) x[p] += 2e-5;
+      double want = 0.0;
+      for (std::size_t i = 0; i < n; ++i)
+        want = std::max(want, std::abs(x[i] - static_cast<double>(static_cast<float>(x[i]))));
+      for (ScanKernel k : scanKernels()) {
+        std::vector<float> a(n, -1.0f);
+        ASSERT_EQ(detail::anchorCoordinates(k, x.data(), a.data(), n), want)
+            << scanKernelName(k) << " n " << n << " largest at " << p;
+        for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(a[i], static_cast<float>(x[i])) << scanKernelName(k) << " " << i;
+      }
+    }
 }
 
 // The whole pass with each build forced: the same vertices re-anchored, the same
