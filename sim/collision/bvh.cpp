@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "sim/collision/motion_scan.h"
 #if defined(__SSE2__)
@@ -39,6 +40,13 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 [[maybe_unused]] float roundUp(double x) { return static_cast<float>(x + (std::abs(x) * 1.2e-7 + 1e-30)); }
 
 double maxAbs(const Vector3d& p) { return p.cwiseAbs().maxCoeff(); }
+
+// Float anchors: a = float(x) (to nearest) is within 2^-24 |a| of x (2^-150 in the
+// subnormal range). Boxes fitted around anchors are widened by twice that (room for the
+// double arithmetic around it), so they hold the positions the anchors were rounded
+// from, and the distance tracked in the slack is the distance beyond that rounding: a
+// vertex just anchored has none, and a full refit leaves no grow (tight queries).
+constexpr double kAnchorRel = 0x1p-23, kAnchorAbs = 0x1p-140;
 
 // False only when intersectSegmentTriangle(a, b, p0, p1, p2, tol) certainly reports
 // no hit: both ends clearly on one side of the plane, or a clear crossing clearly
@@ -228,10 +236,12 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
     // Fat box around the anchors; a corner that left its anchor's reach is
     // re-anchored here, and its other leaves are refitted after this round.
     const BlockVerts& bv = blockVerts_[b];
+    const double limit = margin_ - slack_;
     for (std::uint32_t j = 0; j < bv.n; ++j) {
       const std::uint32_t v = bv.v[j];
-      if (!((X[v] - anchor_[v].cast<double>()).cwiseAbs().maxCoeff() <= margin_ - slack_)) {
-        anchorAt(v, X[v]);
+      const Vector3d a = anchor_[v].cast<double>();
+      if (!((X[v] - a).cwiseAbs().array() <= limit + kAnchorRel * a.cwiseAbs().array() + kAnchorAbs).all()) {
+        anchor_[v] = X[v].cast<float>();
         stale_.push_back(v);
       }
     }
@@ -281,7 +291,17 @@ inline Extent extentOf(const Eigen::Vector3f* P, const std::uint32_t* v, std::ui
     hz = _mm_max_ss(hz, z);
   }
   const __m128d zero = _mm_setzero_pd();
-  return {_mm_cvtps_pd(lxy), _mm_cvtps_pd(hxy), _mm_cvtss_sd(zero, lz), _mm_cvtss_sd(zero, hz)};
+  Extent e{_mm_cvtps_pd(lxy), _mm_cvtps_pd(hxy), _mm_cvtss_sd(zero, lz), _mm_cvtss_sd(zero, hz)};
+  // Widened by the rounding bound (x - rho(x) and x + rho(x) are monotonic: the extreme
+  // anchors give the extreme positions).
+  const __m128d rel = _mm_set1_pd(kAnchorRel), abs0 = _mm_set1_pd(kAnchorAbs);
+  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+  const auto rho = [&](__m128d x) { return _mm_add_pd(_mm_mul_pd(_mm_and_pd(x, absMask), rel), abs0); };
+  e.lxy = _mm_sub_pd(e.lxy, rho(e.lxy));
+  e.hxy = _mm_add_pd(e.hxy, rho(e.hxy));
+  e.lz = _mm_sub_sd(e.lz, rho(e.lz));
+  e.hz = _mm_add_sd(e.hz, rho(e.hz));
+  return e;
 }
 #endif
 }  // namespace
@@ -320,6 +340,10 @@ void TriangleBvh::boxBlock(const Point* P, std::uint32_t b) {
   for (std::uint32_t j = 1; j < bv.n; ++j) {
     lo = lo.min(P[bv.v[j]].template cast<double>().array());
     hi = hi.max(P[bv.v[j]].template cast<double>().array());
+  }
+  if constexpr (std::is_same_v<Point, Eigen::Vector3f>) {  // widened as extentOf does
+    lo -= kAnchorRel * lo.abs() + kAnchorAbs;
+    hi += kAnchorRel * hi.abs() + kAnchorAbs;
   }
   for (int k = 0; k < 3; ++k) {
     n.lo[k] = roundDown(lo[k] - pad_);
@@ -702,7 +726,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
     anchor_.resize(m.verticesSize());
     slack_ = margin_;
     if (!anchor_.empty())
-      slack_ -= detail::anchorCoordinates(activeScanKernel(), P[0].data(), anchor_[0].data(), 3 * anchor_.size());
+      detail::anchorCoordinates(activeScanKernel(), P[0].data(), anchor_[0].data(), 3 * anchor_.size());
     for (std::uint32_t b = 0; b < nb; ++b) boxBlock(anchor_.data(), b);
   } else {
     for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b);
@@ -764,13 +788,7 @@ void TriangleBvh::growAnchors(const mesh::SurfaceMesh& m) {
   const auto& X = m.positions();
   auto v = static_cast<std::uint32_t>(anchor_.size());
   anchor_.resize(X.size());
-  for (; v < X.size(); ++v) anchorAt(v, X[v]);
-}
-
-void TriangleBvh::anchorAt(std::uint32_t v, const Vector3d& x) {
-  anchor_[v] = x.cast<float>();
-  const double e = (x - anchor_[v].cast<double>()).cwiseAbs().maxCoeff();
-  if (e > margin_ - slack_) slack_ = margin_ - e;
+  for (; v < X.size(); ++v) anchor_[v] = X[v].cast<float>();
 }
 
 void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
@@ -840,7 +858,7 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   slack_ = margin_ - worst;
   beginRefit();
   for (std::uint32_t v : moving) {
-    anchorAt(v, X[v]);
+    anchor_[v] = X[v].cast<float>();
     addVertexLeaves(m, Vertex(v));
   }
   finishRefit(m);

@@ -222,8 +222,6 @@ class TriangleBvh {
     fitBlock(m.positions().data(), nodes_[i].index);
   }
   void growAnchors(const mesh::SurfaceMesh& m);
-  // Anchors vertex v at x (rounded to float) and keeps the rounding within the grow.
-  void anchorAt(std::uint32_t v, const Eigen::Vector3d& x);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
   // The box of a block's corners read from P (positions, or the float anchors), grown
@@ -300,8 +298,9 @@ class TriangleBvh {
   std::size_t seenFaces_ = 0, seenVertices_ = 0;
   bool built_ = false;
   // Fat boxes (setMotionMargin): per vertex the position its leaves were fitted
-  // around, rounded to float (the pass reads 36 bytes a vertex instead of 48); every
-  // vertex is within margin_ - slack_ of it (per coordinate), that rounding included.
+  // around, rounded to float (the pass reads 36 bytes a vertex instead of 48; boxes
+  // are widened by the rounding, see kAnchorRel); every vertex is within margin_ -
+  // slack_ of it (per coordinate) beyond that rounding.
   double margin_ = 0.0, slack_ = 0.0;
   std::size_t motionPasses_ = 0;
   std::vector<Eigen::Vector3f> anchor_;

@@ -136,32 +136,15 @@ LD_AVX512 std::size_t scanAvx512(const double* x, const float* a, std::size_t b,
 #endif
 
 #ifdef LD_SCAN_X86
-// anchorCoordinates' bulk, 4 and 8 coordinates at a time (a NaN difference drops out of
-// the max: maxpd keeps its second operand then); returns how many were done.
-LD_AVX2 std::size_t anchorAvx2(const double* x, float* a, std::size_t n, double& err) {
-  const __m256d absMask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
-  __m256d errV = _mm256_set1_pd(err);
+// anchorCoordinates' bulk, 4 and 8 coordinates at a time; returns how many were done.
+LD_AVX2 std::size_t anchorAvx2(const double* x, float* a, std::size_t n) {
   std::size_t i = 0;
-  for (; i + 4 <= n; i += 4) {
-    const __m256d xv = _mm256_loadu_pd(x + i);
-    const __m128 f = _mm256_cvtpd_ps(xv);
-    _mm_storeu_ps(a + i, f);
-    errV = _mm256_max_pd(_mm256_and_pd(_mm256_sub_pd(xv, _mm256_cvtps_pd(f)), absMask), errV);
-  }
-  const __m128d w = _mm_max_pd(_mm256_castpd256_pd128(errV), _mm256_extractf128_pd(errV, 1));
-  err = std::max(_mm_cvtsd_f64(w), _mm_cvtsd_f64(_mm_unpackhi_pd(w, w)));
+  for (; i + 4 <= n; i += 4) _mm_storeu_ps(a + i, _mm256_cvtpd_ps(_mm256_loadu_pd(x + i)));
   return i;
 }
-LD_AVX512 std::size_t anchorAvx512(const double* x, float* a, std::size_t n, double& err) {
-  __m512d errV = _mm512_set1_pd(err);
+LD_AVX512 std::size_t anchorAvx512(const double* x, float* a, std::size_t n) {
   std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    const __m512d xv = _mm512_loadu_pd(x + i);
-    const __m256 f = _mm512_cvtpd_ps(xv);
-    _mm256_storeu_ps(a + i, f);
-    errV = _mm512_max_pd(_mm512_abs_pd(_mm512_sub_pd(xv, _mm512_cvtps_pd(f))), errV);
-  }
-  err = _mm512_reduce_max_pd(errV);
+  for (; i + 8 <= n; i += 8) _mm256_storeu_ps(a + i, _mm512_cvtpd_ps(_mm512_loadu_pd(x + i)));
   return i;
 }
 #endif
@@ -250,32 +233,17 @@ std::size_t scanQuietBlocks(ScanKernel k, const double* x, const float* a, std::
   }
 }
 
-double anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n) {
-  double err = 0.0;
+void anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n) {
   std::size_t i = 0;
 #ifdef LD_SCAN_X86
-  if (k == ScanKernel::Avx512) i = anchorAvx512(x, a, n, err);
-  if (k == ScanKernel::Avx2) i = anchorAvx2(x, a, n, err);
+  if (k == ScanKernel::Avx512) i = anchorAvx512(x, a, n);
+  if (k == ScanKernel::Avx2) i = anchorAvx2(x, a, n);
 #endif
 #if defined(__SSE2__)
-  // Two coordinates at a time; a NaN difference drops out of the max (maxpd keeps its
-  // second operand then), as in the scalar tail.
-  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
-  __m128d errV = _mm_set1_pd(err);
-  for (; k != ScanKernel::Portable && i + 2 <= n; i += 2) {
-    const __m128d xv = _mm_loadu_pd(x + i);
-    const __m128 f = _mm_cvtpd_ps(xv);
-    _mm_storel_epi64(reinterpret_cast<__m128i*>(a + i), _mm_castps_si128(f));
-    errV = _mm_max_pd(_mm_and_pd(_mm_sub_pd(xv, _mm_cvtps_pd(f)), absMask), errV);
-  }
-  err = std::max(_mm_cvtsd_f64(errV), _mm_cvtsd_f64(_mm_unpackhi_pd(errV, errV)));
+  for (; k != ScanKernel::Portable && i + 2 <= n; i += 2)
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(a + i), _mm_castps_si128(_mm_cvtpd_ps(_mm_loadu_pd(x + i))));
 #endif
-  for (; i < n; ++i) {
-    a[i] = static_cast<float>(x[i]);
-    const double e = std::abs(x[i] - static_cast<double>(a[i]));
-    if (e > err) err = e;
-  }
-  return err;
+  for (; i < n; ++i) a[i] = static_cast<float>(x[i]);
 }
 
 }  // namespace detail

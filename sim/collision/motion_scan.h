@@ -1,7 +1,7 @@
 #pragma once
 // The fat-box pass's scan (TriangleBvh::refitMoved, internal to sim/collision): which
 // vertices moved farther than theta from their anchors. Positions are double, anchors
-// float (rounded to nearest; the tree counts that rounding in its slack). Builds chosen
+// float (rounded to nearest; the tree widens its boxes by that rounding). Builds chosen
 // at run time: portable scalar code, SSE2 (2 lanes), AVX2 (4) and AVX-512 (8); no
 // -march, so the library runs anywhere. Every build computes each |x - a| the same way
 // (double subtraction of the anchor widened exactly) and only takes maxima, so all
@@ -31,10 +31,8 @@ namespace detail {
 std::size_t scanQuietBlocks(ScanKernel k, const double* x, const float* a, std::size_t b, std::size_t nb, double theta,
                             double& worst);
 
-// a[i] = float(x[i]) (to nearest) for i < n with build k; returns the largest
-// |x[i] - a[i]| (NaN differences are skipped, as a full refit always did: such a vertex
-// is re-anchored by every pass anyway).
-double anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n);
+// a[i] = float(x[i]) (to nearest, as a static_cast) for i < n, with build k.
+void anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n);
 
 }  // namespace detail
 }  // namespace ld::collision
