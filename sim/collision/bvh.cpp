@@ -7,6 +7,9 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
+
+#include "sim/collision/motion_scan.h"
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -37,6 +40,13 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 [[maybe_unused]] float roundUp(double x) { return static_cast<float>(x + (std::abs(x) * 1.2e-7 + 1e-30)); }
 
 double maxAbs(const Vector3d& p) { return p.cwiseAbs().maxCoeff(); }
+
+// Float anchors: a = float(x) (to nearest) is within 2^-24 |a| of x (2^-150 in the
+// subnormal range). Boxes fitted around anchors are widened by twice that (room for the
+// double arithmetic around it), so they hold the positions the anchors were rounded
+// from, and the distance tracked in the slack is the distance beyond that rounding: a
+// vertex just anchored has none, and a full refit leaves no grow (tight queries).
+constexpr double kAnchorRel = 0x1p-23, kAnchorAbs = 0x1p-140;
 
 // False only when intersectSegmentTriangle(a, b, p0, p1, p2, tol) certainly reports
 // no hit: both ends clearly on one side of the plane, or a clear crossing clearly
@@ -229,8 +239,9 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
     const double limit = margin_ - slack_;
     for (std::uint32_t j = 0; j < bv.n; ++j) {
       const std::uint32_t v = bv.v[j];
-      if (!((X[v] - anchor_[v]).cwiseAbs().maxCoeff() <= limit)) {
-        anchor_[v] = X[v];
+      const Vector3d a = anchor_[v].cast<double>();
+      if (!((X[v] - a).cwiseAbs().array() <= limit + kAnchorRel * a.cwiseAbs().array() + kAnchorAbs).all()) {
+        anchor_[v] = X[v].cast<float>();
         stale_.push_back(v);
       }
     }
@@ -240,7 +251,63 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
   }
 }
 
-void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b) {
+namespace {
+#if defined(__SSE2__)
+// A point's (x, y) and z as doubles (float anchors widened exactly).
+// Min and max of n > 0 points P[v[j]], as doubles: (x, y) and z.
+struct Extent {
+  __m128d lxy, hxy, lz, hz;
+};
+inline Extent extentOf(const Vector3d* P, const std::uint32_t* v, std::uint32_t n) {
+  const double* p = P[v[0]].data();
+  Extent e{_mm_loadu_pd(p), _mm_loadu_pd(p), _mm_load_sd(p + 2), _mm_load_sd(p + 2)};
+  for (std::uint32_t j = 1; j < n; ++j) {
+    p = P[v[j]].data();
+    const __m128d xy = _mm_loadu_pd(p), z = _mm_load_sd(p + 2);
+    e.lxy = _mm_min_pd(e.lxy, xy);
+    e.hxy = _mm_max_pd(e.hxy, xy);
+    e.lz = _mm_min_sd(e.lz, z);
+    e.hz = _mm_max_sd(e.hz, z);
+  }
+  return e;
+}
+// Float points (the anchors): min and max in float, widened once (exact, monotonic: the
+// same as the extent of the widened points).
+inline Extent extentOf(const Eigen::Vector3f* P, const std::uint32_t* v, std::uint32_t n) {
+  const auto load = [&](std::uint32_t j, __m128& xy, __m128& z) {
+    const float* p = P[v[j]].data();
+    xy = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
+    z = _mm_load_ss(p + 2);
+  };
+  __m128 lxy, lz;
+  load(0, lxy, lz);
+  __m128 hxy = lxy, hz = lz;
+  for (std::uint32_t j = 1; j < n; ++j) {
+    __m128 xy, z;
+    load(j, xy, z);
+    lxy = _mm_min_ps(lxy, xy);
+    hxy = _mm_max_ps(hxy, xy);
+    lz = _mm_min_ss(lz, z);
+    hz = _mm_max_ss(hz, z);
+  }
+  const __m128d zero = _mm_setzero_pd();
+  Extent e{_mm_cvtps_pd(lxy), _mm_cvtps_pd(hxy), _mm_cvtss_sd(zero, lz), _mm_cvtss_sd(zero, hz)};
+  // Widened by the rounding bound (x - rho(x) and x + rho(x) are monotonic: the extreme
+  // anchors give the extreme positions).
+  const __m128d rel = _mm_set1_pd(kAnchorRel), abs0 = _mm_set1_pd(kAnchorAbs);
+  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+  const auto rho = [&](__m128d x) { return _mm_add_pd(_mm_mul_pd(_mm_and_pd(x, absMask), rel), abs0); };
+  e.lxy = _mm_sub_pd(e.lxy, rho(e.lxy));
+  e.hxy = _mm_add_pd(e.hxy, rho(e.hxy));
+  e.lz = _mm_sub_sd(e.lz, rho(e.lz));
+  e.hz = _mm_add_sd(e.hz, rho(e.hz));
+  return e;
+}
+#endif
+}  // namespace
+
+template <class Point>
+void TriangleBvh::boxBlock(const Point* P, std::uint32_t b) {
   Node& n = nodes_[blockLeaf_[b]];
   const BlockVerts& bv = blockVerts_[b];
   if (bv.n == 0) {
@@ -251,16 +318,7 @@ void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b) {
     return;
   }
 #if defined(__SSE2__)
-  const double* p = P[bv.v[0]].data();
-  __m128d lxy = _mm_loadu_pd(p), hxy = lxy, lz = _mm_load_sd(p + 2), hz = lz;
-  for (std::uint32_t j = 1; j < bv.n; ++j) {
-    p = P[bv.v[j]].data();
-    const __m128d xy = _mm_loadu_pd(p), z = _mm_load_sd(p + 2);
-    lxy = _mm_min_pd(lxy, xy);
-    hxy = _mm_max_pd(hxy, xy);
-    lz = _mm_min_sd(lz, z);
-    hz = _mm_max_sd(hz, z);
-  }
+  const auto [lxy, hxy, lz, hz] = extentOf(P, bv.v, bv.n);
   // roundDown / roundUp of (value -+ pad), two lanes at a time.
   const __m128d pad = _mm_set1_pd(pad_), rel = _mm_set1_pd(1.2e-7), tiny = _mm_set1_pd(1e-30);
   const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
@@ -278,10 +336,14 @@ void TriangleBvh::boxBlock(const Vector3d* P, std::uint32_t b) {
   _mm_storel_pi(reinterpret_cast<__m64*>(n.hi), up(hxy));
   _mm_store_ss(n.hi + 2, hz4);
 #else
-  Eigen::Array3d lo = P[bv.v[0]].array(), hi = lo;
+  Eigen::Array3d lo = P[bv.v[0]].template cast<double>().array(), hi = lo;
   for (std::uint32_t j = 1; j < bv.n; ++j) {
-    lo = lo.min(P[bv.v[j]].array());
-    hi = hi.max(P[bv.v[j]].array());
+    lo = lo.min(P[bv.v[j]].template cast<double>().array());
+    hi = hi.max(P[bv.v[j]].template cast<double>().array());
+  }
+  if constexpr (std::is_same_v<Point, Eigen::Vector3f>) {  // widened as extentOf does
+    lo -= kAnchorRel * lo.abs() + kAnchorAbs;
+    hi += kAnchorRel * hi.abs() + kAnchorAbs;
   }
   for (int k = 0; k < 3; ++k) {
     n.lo[k] = roundDown(lo[k] - pad_);
@@ -650,19 +712,25 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // Leaf boxes block by block (sequential reads of the distinct corners), then the
   // inner nodes from lists ordered children first: no recursion, no test per node.
   const Vector3d* P = m.positions().data();
-  if (margin_ > 0.0) {  // every vertex anchored where it is
-    anchor_.assign(m.positions().begin(), m.positions().end());
-    slack_ = margin_;
-  }
   const auto nb = static_cast<std::uint32_t>(blocks_.size());
   // In double, rounded outwards once per box exactly as the local refits do. A float
   // path (positions converted once, boxes widened by ~2 ulps: slightly larger boxes)
   // was about 1.4x faster, but with it the cutter's cut-through tests crashed (in the
   // cutter's point location; cause not found yet), so it is not used. With a margin
   // the anchors are the positions (just copied): the boxes are fitted from the
-  // positions, the same values, without fitBlock's per-corner anchor test (which
-  // cannot fire here and was about half of the refit's time).
-  for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b);
+  // anchors just written (the positions rounded to float; the rounding is the only
+  // grow left), without fitBlock's per-corner anchor test (which cannot fire here and
+  // was about half of the refit's time).
+  if (margin_ > 0.0) {  // every vertex anchored where it is
+    static_assert(sizeof(Vector3d) == 3 * sizeof(double) && sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+    anchor_.resize(m.verticesSize());
+    slack_ = margin_;
+    if (!anchor_.empty())
+      detail::anchorCoordinates(activeScanKernel(), P[0].data(), anchor_[0].data(), 3 * anchor_.size());
+    for (std::uint32_t b = 0; b < nb; ++b) boxBlock(anchor_.data(), b);
+  } else {
+    for (std::uint32_t b = 0; b < nb; ++b) boxBlock(P, b);
+  }
   if (!innerLateSorted_) {
     std::sort(innerLate_.begin(), innerLate_.end(), std::greater<>());
     innerLateSorted_ = true;
@@ -718,7 +786,9 @@ void TriangleBvh::finishRefit(const mesh::SurfaceMesh& m) {
 void TriangleBvh::growAnchors(const mesh::SurfaceMesh& m) {
   // Vertices the tree has not seen yet are anchored where they are.
   const auto& X = m.positions();
-  anchor_.insert(anchor_.end(), X.begin() + static_cast<std::ptrdiff_t>(anchor_.size()), X.end());
+  auto v = static_cast<std::uint32_t>(anchor_.size());
+  anchor_.resize(X.size());
+  for (; v < X.size(); ++v) anchor_[v] = X[v].cast<float>();
 }
 
 void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
@@ -752,7 +822,7 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   // in the slack; without one, only what must be.
   const double theta = std::isfinite(maxMove) ? 0.5 * margin_ : margin_;
   const Vector3d* X = m.positions().data();
-  Vector3d* A = anchor_.data();
+  const Eigen::Vector3f* A = anchor_.data();
   const std::size_t nv = m.verticesSize();
   std::vector<std::uint32_t>& moving = staleWork_;  // (free here: finishRefit uses it later)
   moving.clear();
@@ -762,80 +832,35 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   // scan stops as soon as that many are found (the count only grows).
   const std::size_t cutoff = nv / 32;
   double worst = 0.0;
-  // Blocks of 8 vertices as 24 flat coordinates; only a block with a coordinate past
-  // theta is looked at vertex by vertex.
-  static_assert(sizeof(Vector3d) == 3 * sizeof(double));
-  const double* x = X[0].data();
-  const double* a = A[0].data();
-  constexpr std::size_t kChunk = 8;
-#if defined(__SSE2__)
-  // The 12 differences of a block are combined as trees (depth 4, not a chain of 12
-  // dependent max), the largest kept in a register across blocks. A NaN may vanish
-  // from a max, never from a sum: a block whose sum is NaN counts as moved.
-  const __m128d absMask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
-  const __m128d th = _mm_set1_pd(theta);
-  __m128d worstV = _mm_setzero_pd();
-#endif
-  for (std::size_t v0 = 0; v0 < nv; v0 += kChunk) {
-    const std::size_t n = std::min(kChunk, nv - v0);
-    if (n == kChunk) {
-      const double* xc = x + 3 * v0;
-      const double* ac = a + 3 * v0;
-#if defined(__SSE2__)
-      __m128d e[12];
-      for (std::size_t k = 0; k < 12; ++k)
-        e[k] = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(xc + 2 * k), _mm_loadu_pd(ac + 2 * k)), absMask);
-      __m128d mx[6], sm[6];
-      for (std::size_t k = 0; k < 6; ++k) {
-        mx[k] = _mm_max_pd(e[2 * k], e[2 * k + 1]);
-        sm[k] = _mm_add_pd(e[2 * k], e[2 * k + 1]);
-      }
-      for (std::size_t k = 0; k < 3; ++k) {
-        mx[k] = _mm_max_pd(mx[k], mx[k + 3]);
-        sm[k] = _mm_add_pd(sm[k], sm[k + 3]);
-      }
-      const __m128d big = _mm_max_pd(_mm_max_pd(mx[0], mx[1]), mx[2]);
-      const __m128d sum = _mm_add_pd(_mm_add_pd(sm[0], sm[1]), sm[2]);
-      if (_mm_movemask_pd(_mm_or_pd(_mm_cmpnle_pd(big, th), _mm_cmpunord_pd(sum, sum))) == 0) {
-        worstV = _mm_max_pd(worstV, big);
-        continue;
-      }
-#else
-      double d = 0.0;
-      bool bad = false;
-      for (std::size_t k = 0; k < 3 * kChunk; ++k) {
-        const double e = std::abs(xc[k] - ac[k]);
-        d = std::max(d, e);
-        bad = bad || !(e <= theta);
-      }
-      if (!bad) {
-        worst = std::max(worst, d);
-        continue;
-      }
-#endif
-    }
-    for (std::size_t v = v0; v < v0 + n; ++v) {
-      const double dv = (X[v] - A[v]).cwiseAbs().maxCoeff();
+  // Blocks of 8 vertices as 24 flat coordinates (SIMD, the widest build the CPU has);
+  // only a block with a coordinate past theta is looked at vertex by vertex.
+  const ScanKernel kernel = activeScanKernel();
+  const std::size_t nb = nv / 8;
+  const auto vertexByVertex = [&](std::size_t v0, std::size_t v1) {
+    for (std::size_t v = v0; v < v1; ++v) {
+      const double dv = (X[v] - A[v].cast<double>()).cwiseAbs().maxCoeff();
       if (dv <= theta) {
         worst = std::max(worst, dv);
         continue;
       }
       moving.push_back(static_cast<std::uint32_t>(v));
     }
-    if (moving.size() > cutoff) {
+    return moving.size() > cutoff;
+  };
+  for (std::size_t b = 0;; ++b) {
+    if (nv > 0) b = detail::scanQuietBlocks(kernel, X[0].data(), A[0].data(), b, nb, theta, worst);
+    if (vertexByVertex(8 * b, std::min(8 * b + 8, nv))) {
       refit(m);
       return m.nVertices();
     }
-  }
-#if defined(__SSE2__)
-  worst = std::max({worst, _mm_cvtsd_f64(worstV), _mm_cvtsd_f64(_mm_unpackhi_pd(worstV, worstV))});
-#endif
-  beginRefit();
-  for (std::uint32_t v : moving) {
-    A[v] = X[v];
-    addVertexLeaves(m, Vertex(v));
+    if (b >= nb) break;
   }
   slack_ = margin_ - worst;
+  beginRefit();
+  for (std::uint32_t v : moving) {
+    anchor_[v] = X[v].cast<float>();
+    addVertexLeaves(m, Vertex(v));
+  }
   finishRefit(m);
   return moving.size();
 }

@@ -224,8 +224,10 @@ class TriangleBvh {
   void growAnchors(const mesh::SurfaceMesh& m);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
-  // The box of a block's corners read from P, grown by the pad (no anchor test).
-  void boxBlock(const Eigen::Vector3d* P, std::uint32_t block);
+  // The box of a block's corners read from P (positions, or the float anchors), grown
+  // by the pad (no anchor test).
+  template <class Point>
+  void boxBlock(const Point* P, std::uint32_t block);
   void fitInner(std::uint32_t i);
   void fit(const mesh::SurfaceMesh& m, std::uint32_t i) {
     if (nodes_[i].leaf()) {
@@ -296,10 +298,12 @@ class TriangleBvh {
   std::size_t seenFaces_ = 0, seenVertices_ = 0;
   bool built_ = false;
   // Fat boxes (setMotionMargin): per vertex the position its leaves were fitted
-  // around; every vertex is within margin_ - slack_ of it (per coordinate).
+  // around, rounded to float (the pass reads 36 bytes a vertex instead of 48; boxes
+  // are widened by the rounding, see kAnchorRel); every vertex is within margin_ -
+  // slack_ of it (per coordinate) beyond that rounding.
   double margin_ = 0.0, slack_ = 0.0;
   std::size_t motionPasses_ = 0;
-  std::vector<Eigen::Vector3d> anchor_;
+  std::vector<Eigen::Vector3f> anchor_;
   std::vector<std::uint32_t> stale_, staleWork_;  // re-anchored in a fit: their other leaves follow
 };
 
