@@ -364,7 +364,9 @@ TEST(TriangleBvh, FatBoxPassesAreTheSameWithEveryScanKernel) {
       if (::testing::Test::HasFatalFailure()) return;
     }
     t.passes = bvh.motionPasses();
-    EXPECT_GT(t.passes, 10u);
+    // About one pass in ten steps (the jumps and the unbounded steps); under
+    // AddressSanitizer the test runs a quarter of the steps (scaled).
+    EXPECT_GT(t.passes, static_cast<std::size_t>(testing::scaled(120) / 12));
     traces.push_back(std::move(t));
   }
   for (std::size_t i = 1; i < traces.size(); ++i) {
