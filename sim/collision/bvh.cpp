@@ -786,9 +786,10 @@ void TriangleBvh::finishRefit(const mesh::SurfaceMesh& m) {
 void TriangleBvh::growAnchors(const mesh::SurfaceMesh& m) {
   // Vertices the tree has not seen yet are anchored where they are.
   const auto& X = m.positions();
-  auto v = static_cast<std::uint32_t>(anchor_.size());
+  const std::size_t v = anchor_.size();
   anchor_.resize(X.size());
-  for (; v < X.size(); ++v) anchor_[v] = X[v].cast<float>();
+  if (v < X.size())  // rounded as refit() rounds them all
+    detail::anchorCoordinates(activeScanKernel(), X[v].data(), anchor_[v].data(), 3 * (X.size() - v));
 }
 
 void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
