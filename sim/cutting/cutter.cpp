@@ -321,8 +321,9 @@ struct CutEngine::Impl {
 
   // ---- geometry helpers --------------------------------------------------------------
   // SurfaceMesh::faces(v) into a kept vector (the walk asks for every step).
-  // Each face once, in the same order (a mark per face index instead of a search of the
-  // list: a groove's bottom vertex has dozens of faces).
+  // Each face once, in the same order, by the engine's marks per face index (a const
+  // mesh has no scratch of its own: its faces(v, out) searches a stack buffer or table,
+  // and called here instead it cost 2 % more of the remesh's instructions).
   void facesAround(const SurfaceMesh& m, Vertex v, std::vector<Face>& out) {
     out.clear();
     newFaceMarks(m);
@@ -892,11 +893,14 @@ struct CutEngine::Impl {
         tissue(tr.object) ? m.getVertexProperty<Vec3>(physics::kHomeProp) : mesh::VertexProperty<Vec3>();
     const Vec3 restDepthN =
         home ? Vec3(home[N] + (depthN - m.position(N))) : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-    if (!tr.tip.isValid()) {
+    auto tipToN = [&] {
       tr.tip = N;
-      tr.first = N;
       tr.tipDepth = depthN;
       tr.tipRestDepth = restDepthN;
+    };
+    if (!tr.tip.isValid()) {
+      tipToN();
+      tr.first = N;
       return true;
     }
     const Vertex v = tr.tip;
@@ -907,17 +911,13 @@ struct CutEngine::Impl {
     // (assign: the chain keeps its buffer)
     auto advanceTo = [&](std::initializer_list<Vertex> chain) {
       tr.chain.assign(chain);
-      tr.tip = N;
-      tr.tipDepth = depthN;
-      tr.tipRestDepth = restDepthN;
+      tipToN();
       stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
     };
     if (tr.tunnel) {
       // Nothing opens until both layers have a path that can (two edges each).
       tr.chain.insert(tr.chain.begin(), v);
-      tr.tip = N;
-      tr.tipDepth = depthN;
-      tr.tipRestDepth = restDepthN;
+      tipToN();
       stats.longestFront = std::max(stats.longestFront, static_cast<long>(tr.chain.size()) + 1);
       if (P && P->tunnel && tunnelReady(tr) && tunnelReady(*P)) openTunnel(tr, *P);
       return true;
@@ -1075,9 +1075,7 @@ struct CutEngine::Impl {
       if (fill == Fill::Defer) {
         if (P && !P->chain.empty() && P->chain.back() == v) P->chain.push_back(N);
         tr.chain.insert(tr.chain.begin(), v);  // the front grows: v, chain...
-        tr.tip = N;
-        tr.tipDepth = depthN;
-        tr.tipRestDepth = restDepthN;
+        tipToN();
         return true;
       }
     }
