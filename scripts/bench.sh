@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Speed and memory figures: builds the Release benchmarks and runs every Google
 # Benchmark program (build-bench/bench/*) plus the CLI's `sim bench` on the built-in
-# scenes, writing JSON to build-bench/results/. Run it on a quiet machine; nothing
-# here is asserted (the tests never time anything).
+# scenes and the CLI's `cut` on the scripted slab tasks (the default slab and a
+# 100k-triangle one, physics off and on), writing JSON to build-bench/results/. Run it
+# on a quiet machine; nothing here is asserted (the tests never time anything).
 #   scripts/bench.sh [program-regex [benchmark args...]]
 #   e.g. scripts/bench.sh physics --benchmark_filter=Symplectic
 set -euo pipefail
@@ -33,6 +34,23 @@ if [[ "sim" =~ $filter ]] || [ "$filter" = . ]; then
       build-bench/bin/lapdissect-cli sim bench --scene "$scene" --method "$method" --dt 0.001 --duration 0.5 \
         > "$out/sim_${scene}_${method}.json" || true
       echo "sim bench $scene $method: $(cat "$out/sim_${scene}_${method}.json")"
+    done
+  done
+fi
+# The CLI's cut figures: each slab task's expert stroke at 1 kHz on the default slab
+# (about 10k triangles) and on the same box at 100k triangles (`mesh slab`).
+if [[ "cut" =~ $filter ]] || [ "$filter" = . ]; then
+  cli=build-bench/bin/lapdissect-cli
+  "$cli" mesh slab --triangles 100000 --out "$out/slab100k.obj" >/dev/null
+  for task in slab-straight-line slab-gentle-curve slab-s-curve slab-circle-cutout; do
+    "$cli" task script --task "resources/tasks/$task.json" --level 0 --rate 1000 --out "$out/$task.csv" >/dev/null
+    for mesh in resources/models/tissue_slab.obj "$out/slab100k.obj"; do
+      size=$(basename "$mesh" .obj)
+      for physics in off on; do
+        "$cli" cut --mesh "$mesh" --trajectory "$out/$task.csv" --physics "$physics" \
+          > "$out/cut_${task}_${size}_${physics}.json" || true
+        echo "cut $task $size physics $physics: $(cat "$out/cut_${task}_${size}_${physics}.json")"
+      done
     done
   done
 fi

@@ -63,7 +63,7 @@ namespace {
 
 const char* kUsage =
     "usage: lapdissect-cli GROUP ...\n"
-    "  mesh info FILE | mesh convert IN OUT\n"
+    "  mesh info FILE | mesh convert IN OUT | mesh slab --triangles N --out FILE\n"
     "  cut --mesh FILE --trajectory CSV [--physics off|on [--active-region off|on] [--collision-margin MM]]"
     " [--out FILE]\n"
     "  sim bench --scene NAME|FILE --method NAME --dt S --duration S | sim chart --out DIR\n"

@@ -1,12 +1,17 @@
 // lapdissect-cli mesh info FILE | mesh convert IN OUT   (contract in DESIGN.md)
 // Both take `--weld on` to merge equal points in every format (STL always is);
 // convert takes `--binary on` to write binary PLY.
+// Extension: mesh slab --triangles N --out FILE writes the default tissue's box
+// (tissue_slab.obj's 80 x 60 x 5 mm, centred on the origin) at the resolution that
+// gives about N triangles, so that the scripted tasks' trajectories cut it: the
+// command line's figures at the targets' 100k triangles.
 #include <cmath>
 #include <string>
 
 #include "app/cli/cli.h"
 #include "sim/io/mesh_formats.h"
 #include "sim/io/mesh_io.h"
+#include "sim/physics/scenes.h"
 
 namespace ld::cli {
 namespace {
@@ -79,19 +84,44 @@ int convert(const Args& args) {
   return kOk;
 }
 
+int slab(const Args& args) {
+  const std::string out = args.get("out");
+  const double wanted = args.getDouble("triangles");
+  // A closed box of area A in squares of side h has about 2 A / h^2 triangles.
+  constexpr double kX = 80.0, kY = 60.0, kZ = 5.0, kArea = 2.0 * (kX * kY + kX * kZ + kY * kZ);
+  constexpr double kMaxTriangles = 2e7;  // about 2 GB of mesh
+  if (!(wanted >= 100.0) || wanted > kMaxTriangles)
+    throw CliError(kBadInput, "option --triangles: expected 100 to 20000000, found " + args.get("triangles"));
+  const auto outFormat = io::formatFromPath(out);
+  if (!outFormat || *outFormat == io::Format::Stl || *outFormat == io::Format::Off)
+    throw CliError(kBadInput, out + ": cannot export this format (use .obj, .ply or .wrl)");
+  const double h = std::sqrt(2.0 * kArea / wanted);
+  mesh::SurfaceMesh m = physics::makeSlab(kX, kY, kZ, h);
+  for (Eigen::Vector3d& p : m.positions()) p -= Eigen::Vector3d(kX / 2, kY / 2, kZ / 2);
+  io::writeMesh(m, out);
+  nlohmann::json j;
+  j["out"] = out;
+  j["vertices"] = m.nVertices();
+  j["triangles"] = m.nFaces();
+  j["spacing"] = h;
+  printJson(j);
+  return kOk;
+}
+
 }  // namespace
 
 int runMesh(const Args& args) {
-  const std::string sub = args.pos(0, "mesh command (info or convert)");
+  const std::string sub = args.pos(0, "mesh command (info, convert or slab)");
   try {
     if (sub == "info") return info(args);
     if (sub == "convert") return convert(args);
+    if (sub == "slab") return slab(args);
   } catch (const io::ParseError& e) {
     throw CliError(kBadInput, e.what());
   } catch (const io::IoError& e) {
     throw CliError(kBadInput, e.what());
   }
-  throw CliError(kBadInput, "unknown mesh command '" + sub + "' (expected info or convert)");
+  throw CliError(kBadInput, "unknown mesh command '" + sub + "' (expected info, convert or slab)");
 }
 
 }  // namespace ld::cli

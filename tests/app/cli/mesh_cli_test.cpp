@@ -192,4 +192,38 @@ TEST_F(MeshCli, ConvertRoundTripsThroughEveryExportFormat) {
   EXPECT_NE(nodir.err.find("cannot open for writing"), std::string::npos);
 }
 
+// The default tissue's box at a chosen resolution: closed, one piece, outward, in
+// tissue_slab.obj's frame, about as many triangles as asked for.
+TEST_F(MeshCli, SlabHasTheDefaultTissuesBoxAtTheAskedResolution) {
+  for (int wanted : {2000, 20000}) {
+    SCOPED_TRACE(wanted);
+    const auto out = dir_ / ("slab" + std::to_string(wanted) + ".obj");
+    const auto res = cli("mesh slab --triangles " + std::to_string(wanted) + " --out " + shellQuote(out.string()));
+    ASSERT_EQ(res.exitCode, 0) << res.err;
+    const auto made = nlohmann::json::parse(res.out);
+    const auto j = nlohmann::json::parse(cli("mesh info " + shellQuote(out.string())).out);
+    EXPECT_EQ(j["triangles"], made["triangles"]);
+    EXPECT_NEAR(j["triangles"].get<double>(), wanted, 0.1 * wanted);
+    EXPECT_EQ(j["closed"], true);
+    EXPECT_EQ(j["manifold"], true);
+    EXPECT_EQ(j["components"], 1);
+    EXPECT_EQ(j["consistently_oriented"], true);
+    EXPECT_EQ(j["flipped_faces"], 0);
+    EXPECT_NEAR(j["area"].get<double>(), 11000.0, 1e-6);
+    const double box[2][3] = {{-40.0, -30.0, -2.5}, {40.0, 30.0, 2.5}};
+    for (int c = 0; c < 2; ++c)
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(j["bbox"][c][k].get<double>(), box[c][k], 1e-9);
+  }
+  for (const std::string bad : {"--triangles 5", "--triangles many", "--triangles 1e9"}) {
+    SCOPED_TRACE(bad);
+    const auto res = cli("mesh slab " + bad + " --out " + shellQuote((dir_ / "bad.obj").string()));
+    EXPECT_EQ(res.exitCode, 2);
+    EXPECT_NE(res.err.find("--triangles"), std::string::npos) << res.err;
+    EXPECT_FALSE(fs::exists(dir_ / "bad.obj"));
+  }
+  const auto stl = cli("mesh slab --triangles 1000 --out " + shellQuote((dir_ / "s.stl").string()));
+  EXPECT_EQ(stl.exitCode, 2);
+  EXPECT_NE(stl.err.find("s.stl"), std::string::npos) << stl.err;
+}
+
 }  // namespace
