@@ -89,7 +89,7 @@ int slab(const Args& args) {
   const double wanted = args.getDouble("triangles");
   // A closed box of area A in squares of side h has about 2 A / h^2 triangles.
   constexpr double kX = 80.0, kY = 60.0, kZ = 5.0, kArea = 2.0 * (kX * kY + kX * kZ + kY * kZ);
-  constexpr double kMaxTriangles = 2e7;  // about 2 GB of mesh
+  constexpr double kMaxTriangles = 2e7;  // gigabytes of mesh already
   if (!(wanted >= 100.0) || wanted > kMaxTriangles)
     throw CliError(kBadInput, "option --triangles: expected 100 to 20000000, found " + args.get("triangles"));
   const auto outFormat = io::formatFromPath(out);
