@@ -253,7 +253,6 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
 
 namespace {
 #if defined(__SSE2__)
-// A point's (x, y) and z as doubles (float anchors widened exactly).
 // Min and max of n > 0 points P[v[j]], as doubles: (x, y) and z.
 struct Extent {
   __m128d lxy, hxy, lz, hz;

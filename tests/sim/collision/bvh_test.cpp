@@ -333,8 +333,9 @@ TEST(TriangleBvh, FatBoxPassesAreTheSameWithEveryScanKernel) {
     std::vector<double> box;
     std::size_t passes = 0;
   };
+  const std::vector<ScanKernel> kernels = scanKernels();
   std::vector<Trace> traces;
-  for (ScanKernel k : scanKernels()) {
+  for (ScanKernel k : kernels) {
     SCOPED_TRACE(std::string(scanKernelName(k)));
     ForcedScan forced(k);
     SurfaceMesh m = start;
@@ -370,9 +371,9 @@ TEST(TriangleBvh, FatBoxPassesAreTheSameWithEveryScanKernel) {
     traces.push_back(std::move(t));
   }
   for (std::size_t i = 1; i < traces.size(); ++i) {
-    EXPECT_EQ(traces[i].reanchored, traces[0].reanchored) << scanKernelName(scanKernels()[i]);
-    EXPECT_EQ(traces[i].box, traces[0].box) << scanKernelName(scanKernels()[i]);
-    EXPECT_EQ(traces[i].passes, traces[0].passes) << scanKernelName(scanKernels()[i]);
+    EXPECT_EQ(traces[i].reanchored, traces[0].reanchored) << scanKernelName(kernels[i]);
+    EXPECT_EQ(traces[i].box, traces[0].box) << scanKernelName(kernels[i]);
+    EXPECT_EQ(traces[i].passes, traces[0].passes) << scanKernelName(kernels[i]);
   }
 }
 
