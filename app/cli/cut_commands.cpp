@@ -97,7 +97,8 @@ int cut(const Args& args) {
         if (const auto moved = physics::movedVertices(*dynamics[k]))
           engine.verticesMoved(id, *moved);
         else
-          engine.verticesMovedWithin(id, dynamics[k]->maxMove);
+          engine.verticesMovedWithin(id, dynamics[k]->maxMove, dynamics[k]->groupMoves2(),
+                                     physics::Dynamics::kMoveGroup);
       }
     }
   };

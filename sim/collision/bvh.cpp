@@ -817,10 +817,106 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
     return 0;
   }
   if (anchor_.size() < m.verticesSize()) growAnchors(m);
-  ++motionPasses_;
   // With a bound from the caller, re-anchor at half the margin so the next steps fit
   // in the slack; without one, only what must be.
-  const double theta = std::isfinite(maxMove) ? 0.5 * margin_ : margin_;
+  return motionPass(m, std::isfinite(maxMove) ? 0.5 * margin_ : margin_);
+}
+
+std::size_t TriangleBvh::refitMovedGroups(const mesh::SurfaceMesh& m, std::span<const double> groupMoves2,
+                                          std::size_t groupSize) {
+  checkMesh(m, "refitMovedGroups");
+  if (groupSize == 0) throw CollisionError("TriangleBvh::refitMovedGroups: groupSize must be > 0");
+  if (margin_ <= 0.0) {
+    refit(m);
+    return m.nVertices();
+  }
+  if (anchor_.size() < m.verticesSize()) growAnchors(m);
+  const std::size_t nv = m.verticesSize();
+  const std::size_t groups = std::min(groupMoves2.size(), (nv + groupSize - 1) / groupSize);
+  const std::size_t covered = std::min(nv, groups * groupSize);
+  // Fast: a group whose bound is over a small share of the margin (or not a number).
+  const double fast = kFastShare * margin_, fast2 = fast * fast;
+  double bulk2 = 0.0, all2 = 0.0;
+  bool unknown = covered < nv;
+  std::vector<std::uint32_t>& fastGroups = staleWork_;  // (free here, as in motionPass)
+  fastGroups.clear();
+  const ScanKernel kernel = activeScanKernel();
+  for (std::size_t g = 0;; ++g) {
+    g = detail::scanQuietBounds(kernel, groupMoves2.data(), g, groups, fast2, bulk2);
+    if (g >= groups) break;
+    fastGroups.push_back(static_cast<std::uint32_t>(g));
+    const double b2 = groupMoves2[g];
+    if (b2 > fast2)
+      all2 = std::max(all2, b2);
+    else
+      unknown = true;  // not a number: the group is looked at
+  }
+  const std::size_t checked = fastGroups.size() * groupSize + (nv - covered);
+  const double pad = 4.0 * DBL_EPSILON * padScale_;  // as in refitMoved
+  const double bulk = std::sqrt(bulk2) + pad;
+  // Looking at the fast ones every step pays while that reads well under the passes it
+  // spares (all vertices, about every margin / (2 fastest move) steps at this pace; a
+  // quarter of that, for the scan of the bounds and the per-group work, by instruction
+  // counts on the default slab, where it breaks even); not with many fast ones (a sag,
+  // the first steps of a drop) or the slack spent.
+  const bool few = checked <= nv / 4 && (unknown || static_cast<double>(checked) * 2.0 * margin_ <=
+                                                        static_cast<double>(nv) * std::sqrt(all2));
+  if (!few || bulk > slack_) {
+    const bool known = !unknown && std::isfinite(all2);
+    const double move = known ? std::sqrt(std::max(all2, bulk2)) + pad : std::numeric_limits<double>::infinity();
+    if (move <= slack_) {
+      slack_ -= move;
+      return 0;
+    }
+    return motionPass(m, known ? 0.5 * margin_ : margin_);
+  }
+  // The others moved at most `bulk`: the slack pays for them. The fast ones and those
+  // past the groups (no bound) are looked at; one that left the reach the new slack
+  // leaves is re-anchored.
+  slack_ -= bulk;
+  const double limit = margin_ - slack_;
+  const Vector3d* X = m.positions().data();
+  std::vector<std::uint32_t>& moving = fastMoving_;
+  moving.clear();
+  const auto oneByOne = [&](std::size_t v0, std::size_t v1) {
+    for (std::size_t v = v0; v < v1; ++v)
+      if (!((X[v] - anchor_[v].cast<double>()).cwiseAbs().maxCoeff() <= limit))
+        moving.push_back(static_cast<std::uint32_t>(v));
+  };
+  // Whole blocks of 8 through the pass's scan; only a block with a vertex past the
+  // limit, and what is not a whole block, one by one.
+  const std::size_t nb = nv / 8;
+  const auto look = [&](std::size_t v0, std::size_t v1) {
+    std::size_t b = (v0 + 7) / 8;
+    const std::size_t bEnd = std::min(v1 / 8, nb);
+    if (b >= bEnd) return oneByOne(v0, v1);
+    oneByOne(v0, 8 * b);
+    for (double unused = 0.0;; ++b) {
+      b = detail::scanQuietBlocks(kernel, X[0].data(), anchor_[0].data(), b, bEnd, limit, unused);
+      if (b >= bEnd) break;
+      oneByOne(8 * b, 8 * b + 8);
+    }
+    oneByOne(8 * bEnd, v1);
+  };
+  for (std::uint32_t g : fastGroups) look(g * groupSize, std::min(nv, (g + 1) * groupSize));
+  look(covered, nv);
+  return reanchor(m, moving);
+}
+
+std::size_t TriangleBvh::reanchor(const mesh::SurfaceMesh& m, const std::vector<std::uint32_t>& vertices) {
+  if (vertices.empty()) return 0;
+  const Vector3d* X = m.positions().data();
+  beginRefit();
+  for (std::uint32_t v : vertices) {
+    anchor_[v] = X[v].cast<float>();
+    addVertexLeaves(m, Vertex(v));
+  }
+  finishRefit(m);
+  return vertices.size();
+}
+
+std::size_t TriangleBvh::motionPass(const mesh::SurfaceMesh& m, double theta) {
+  ++motionPasses_;
   const Vector3d* X = m.positions().data();
   const Eigen::Vector3f* A = anchor_.data();
   const std::size_t nv = m.verticesSize();
@@ -856,13 +952,7 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
     if (b >= nb) break;
   }
   slack_ = margin_ - worst;
-  beginRefit();
-  for (std::uint32_t v : moving) {
-    anchor_[v] = X[v].cast<float>();
-    addVertexLeaves(m, Vertex(v));
-  }
-  finishRefit(m);
-  return moving.size();
+  return reanchor(m, moving);
 }
 
 void TriangleBvh::fitRound(const mesh::SurfaceMesh& m) {

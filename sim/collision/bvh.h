@@ -117,6 +117,18 @@ class TriangleBvh {
   // left, nothing is read at all. Without a margin: refit(). Returns the vertices
   // re-anchored (all of them for a refit()).
   std::size_t refitMoved(const mesh::SurfaceMesh& m, double maxMove = std::numeric_limits<double>::infinity());
+  // As refitMoved, with a bound per group of `groupSize` consecutive vertices (vertex v
+  // in group v / groupSize), squared: how far any of them moved since the last call,
+  // per coordinate (e.g. physics::Dynamics::groupMoves2()). Only the bulk's bound is
+  // taken from the slack; the vertices of the few groups that moved farther than
+  // kFastShare of the margin (a lip retracting), and those past the groups, are looked
+  // at one by one and re-anchored once they leave their reach. So a handful of fast
+  // vertices no longer set off a pass over all of them every few steps. When looking
+  // at the fast groups would read more than the passes it spares, or with the slack
+  // spent: as refitMoved. Returns the vertices re-anchored (all of them for a
+  // refit()). Throws for groupSize 0.
+  std::size_t refitMovedGroups(const mesh::SurfaceMesh& m, std::span<const double> groupMoves2, std::size_t groupSize);
+  static constexpr double kFastShare = 1.0 / 64.0;
   // After m.garbageCollection() (which returned `c`): renumbers the tree's faces and
   // corners through c.faceMap instead of rebuilding; faces the compaction dropped
   // leave their leaves. Also for a copy of a tree whose mesh was copied and then cut
@@ -222,6 +234,12 @@ class TriangleBvh {
     fitBlock(m.positions().data(), nodes_[i].index);
   }
   void growAnchors(const mesh::SurfaceMesh& m);
+  // One pass over every vertex: those farther than theta from their anchor are
+  // re-anchored (or all, by a refit(), when many are); the slack is what the farthest
+  // of the others leaves.
+  std::size_t motionPass(const mesh::SurfaceMesh& m, double theta);
+  // Anchors the vertices where they are and refits their leaves; returns how many.
+  std::size_t reanchor(const mesh::SurfaceMesh& m, const std::vector<std::uint32_t>& vertices);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
   // The box of a block's corners read from P (positions, or the float anchors), grown
@@ -305,6 +323,7 @@ class TriangleBvh {
   std::size_t motionPasses_ = 0;
   std::vector<Eigen::Vector3f> anchor_;
   std::vector<std::uint32_t> stale_, staleWork_;  // re-anchored in a fit: their other leaves follow
+  std::vector<std::uint32_t> fastMoving_;         // refitMovedGroups scratch
 };
 
 }  // namespace ld::collision

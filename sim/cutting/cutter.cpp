@@ -3027,7 +3027,8 @@ struct CutEngine::Impl {
     if (b.sync(m) != collision::SyncResult::Rebuilt) {
       if (moved[i] && b.motionMargin() > 0.0) {
         const std::size_t passes = b.motionPasses();
-        stats.verticesReanchored += static_cast<long>(b.refitMoved(m, moveBound[i]));
+        stats.verticesReanchored += static_cast<long>(
+            groupMoves.empty() ? b.refitMoved(m, moveBound[i]) : b.refitMovedGroups(m, groupMoves, groupSize));
         stats.marginPasses += static_cast<long>(b.motionPasses() - passes);
         ++stats.marginRefits;
       } else if (moved[i]) {
@@ -3052,6 +3053,9 @@ struct CutEngine::Impl {
     moveBound[i] = 0.0;
     movedList[i].clear();
   }
+  // verticesMovedWithin's per-group bounds, for the syncBvh it calls (empty otherwise).
+  std::span<const double> groupMoves;
+  std::size_t groupSize = 0;
   std::vector<std::pair<int, Vertex>> slidPending;  // (object id, vertex) moved by slideBottom
   std::vector<Vertex> slidScratch;
 
@@ -3805,6 +3809,32 @@ void CutEngine::verticesMovedWithin(int id, double maxMove) {
   impl_->moveBound[k] = impl_->moved[k] ? impl_->moveBound[k] + maxMove : maxMove;
   impl_->moved[k] = 1;
   ++impl_->motionCount;  // the tracks re-anchor to the tissue, as for object()
+}
+
+void CutEngine::verticesMovedWithin(int id, double maxMove, std::span<const double> groupMoves2,
+                                    std::size_t groupSize) {
+  if (groupSize == 0) throw CutError("verticesMovedWithin: groupSize must be > 0");
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  Impl& I = *impl_;
+  const auto k = static_cast<std::size_t>(i);
+  // Moves of earlier steps not yet taken (several steps between samples): their bounds
+  // add up as one number.
+  if (groupMoves2.empty() || I.moved[k] || !(maxMove >= 0.0) || I.bvhs[k].motionMargin() <= 0.0) {
+    verticesMovedWithin(id, maxMove);
+    return;
+  }
+  I.moved[k] = 1;
+  I.moveBound[k] = maxMove;
+  ++I.motionCount;
+  IntervalTimer timer{I.stats.collisionSeconds};
+  I.groupMoves = groupMoves2;
+  I.groupSize = groupSize;
+  struct Clear {
+    Impl& I;
+    ~Clear() { I.groupMoves = {}; }
+  } clear{I};
+  I.syncBvh(k);
 }
 
 StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {

@@ -185,6 +185,11 @@ class CutEngine {
   // physics::Dynamics::maxMove): with a collisionMargin the tree is not even read
   // while the moves add up to less than the slack its boxes have left.
   void verticesMovedWithin(int id, double maxMove);
+  // As above, with a bound per group of `groupSize` consecutive vertices, squared
+  // (physics::Dynamics::groupMoves2(), kMoveGroup): the collision tree takes it at once
+  // (TriangleBvh::refitMovedGroups; the time counts as collision time), so the span
+  // need not outlive the call. Empty: as above. Throws CutError for groupSize 0.
+  void verticesMovedWithin(int id, double maxMove, std::span<const double> groupMoves2, std::size_t groupSize);
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

@@ -26,6 +26,8 @@
 
 namespace ld::physics {
 
+static_assert(Dynamics::kMoveGroup == detail::kGroup, "groupMoves2 is indexed by the step's vertex groups");
+
 using Vec3 = Eigen::Vector3d;
 using detail::Cache;
 using detail::Spring;
@@ -813,6 +815,7 @@ struct SymplecticArgs {
   detail::Kernel kernel;
   bool energy;  // the monitor's sums (see symplecticEuler)
   bool rsqrt;   // detail::Factor::Rsqrt (both threads take the same)
+  double* groupMove2 = nullptr;  // with energy: each group's move bound, squared (BlockStep)
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
@@ -850,6 +853,9 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.g[0] = w.g.x();
   bs.g[1] = w.g.y();
   bs.g[2] = w.g.z();
+  bs.groupMove2 = a.groupMove2;
+  // As maxMove's bound (advance), squared.
+  bs.moveScale2 = a.dt * a.dt * (1.0 + 4e-12);
   detail::FinishSums acc;
   detail::blockStep(a.kernel, bs, acc);
   SweepSums s;
@@ -895,10 +901,21 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
   const detail::Kernel kern = detail::activeKernel();
-  const SymplecticArgs args{
-      &w, &c, x0, v0, x1, v1, f4, dt, kern, energy, detail::activeFactor(kern) == detail::Factor::Rsqrt};
-  const double added = addedSprings(w, raw(x0), f4);
   const std::size_t ng = c.extraGroup.size();
+  if (energy) c.groupMove2.resize(ng);
+  const SymplecticArgs args{&w,
+                            &c,
+                            x0,
+                            v0,
+                            x1,
+                            v1,
+                            f4,
+                            dt,
+                            kern,
+                            energy,
+                            detail::activeFactor(kern) == detail::Factor::Rsqrt,
+                            energy ? c.groupMove2.data() : nullptr};
+  const double added = addedSprings(w, raw(x0), f4);
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
     sums = symplecticGroups(args, 0, ng);

@@ -15,6 +15,7 @@
 // step(params, dynamics, mesh, dt); State is Dynamics + mesh and every State overload
 // forwards to the in-place one, so both give bit-identical results. Topology edits
 // between steps are picked up through mesh.topologyVersion().
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -208,6 +209,7 @@ struct Cache {
   // accumulator, 4 doubles a vertex (x, y, z, unused: one 4-wide update per spring
   // end); zero between steps.
   std::vector<double> f4, scatter4;
+  std::vector<double> groupMove2;  // the symplectic step's bound per vertex group (Dynamics::groupMoves2)
   std::vector<double> lambda;  // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
   std::uint64_t localUpdates = 0;
@@ -253,6 +255,16 @@ struct Dynamics {
   // method other than symplectic Euler, the monitor off, substeps, a fallback, the
   // active-region step, rawStep).
   double maxMove = std::numeric_limits<double>::infinity();
+  // After step(), when maxMove is finite: per group of kMoveGroup consecutive vertices
+  // (vertex v in group v / kMoveGroup), the square of a bound on how far any of them
+  // moved in it, per coordinate [mm²], as maxMove up to the rounding of x + dx
+  // (TriangleBvh::refitMovedGroups: the few fast vertices apart from the bulk). Empty
+  // when maxMove is not finite.
+  static constexpr std::size_t kMoveGroup = 16;
+  [[nodiscard]] std::span<const double> groupMoves2() const {
+    if (!std::isfinite(maxMove)) return {};
+    return cache.groupMove2;
+  }
 
   // Call after changing masses, rest lengths or stiffnesses without a topology edit.
   void invalidate() {

@@ -111,9 +111,12 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
   const double sharedK = c.springK, twoK = 2.0 * c.springK;
   ScalarSums s;
   double pe[kLanes] = {};
+  const bool groupMoves = Energy && c.groupMove2 != nullptr;
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
     prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp;
+    const double before = s.maxc;  // (max is exact: the total is the same either way)
+    if (groupMoves) s.maxc = 0.0;
     for (std::size_t h = 0; h < 2; ++h) {
       const std::size_t blk = 2 * grp + h;
       double xs[kLanes], ys[kLanes], zs[kLanes], fx[kLanes] = {}, fy[kLanes] = {}, fz[kLanes] = {};
@@ -159,6 +162,10 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
         }
         integrateScalar<Energy>(c, i, f, s);
       }
+    }
+    if (groupMoves) {
+      c.groupMove2[grp] = s.maxc * c.moveScale2;
+      s.maxc = std::max(before, s.maxc);
     }
   }
   for (double p : pe) out.pe += p;
@@ -380,9 +387,12 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
   const __m256d grav[3] = {_mm256_setr_pd(c.g[0], c.g[1], c.g[2], c.g[0]),
                            _mm256_setr_pd(c.g[1], c.g[2], c.g[0], c.g[1]),
                            _mm256_setr_pd(c.g[2], c.g[0], c.g[1], c.g[2])};
+  const bool groupMoves = Energy && c.groupMove2 != nullptr;
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
     prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp, rem = std::min(kGroup, c.n - t);
+    const __m256d before = acc.maxc;
+    if (groupMoves) acc.maxc = zero;
     // Forces a vertex of the group (lanes put back in vertex order).
     __m256d fv[kGroup];
     for (std::size_t q = 0; q < kGroup; q += 4) {
@@ -419,6 +429,10 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
       finish4<Energy>(c, fv + q, buf[0], buf[1], buf[2], buf[3], mass, stiff, buf[4], buf[5], grav, acc);
       std::copy(buf[4], buf[4] + 3 * rem4, c.x1 + b);
       std::copy(buf[5], buf[5] + 3 * rem4, c.v1 + b);
+    }
+    if (groupMoves) {
+      c.groupMove2[grp] = hmax(acc.maxc) * c.moveScale2;
+      acc.maxc = _mm256_max_pd(acc.maxc, before);
     }
   }
   s.ke1 += hsum(acc.ke);
@@ -711,10 +725,13 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
   }
   Acc512 acc{k.zero, k.zero, k.zero, k.zero, k.zero, k.zero};
   __m512d pe = k.zero;
+  const bool groupMoves = Energy && c.groupMove2 != nullptr;
   for (std::size_t grp = c.g0; grp < c.g1; ++grp) {
     prefetchGroup(c, grp);
     const std::size_t t = kGroup * grp;
     const std::size_t rem = std::min(kGroup, c.n - t), comps = 3 * rem;
+    const __m512d before = acc.maxc;
+    if (groupMoves) acc.maxc = k.zero;
     // Positions of the 16 vertices, flat (6 registers), then one register an axis
     // a half; lanes past n load as 0 (their springs are padding).
     __mmask8 mk[6];
@@ -743,6 +760,10 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       __m512d fv[3];
       for (int a = 0; a < 3; ++a) fv[a] = _mm512_permutex2var_pd(f[0][a], vs, f[1][a]);
       finish8<Energy>(c, k, t + kLanes * h, std::min(kLanes, rem - kLanes * h), extra, X + 3 * h, mk + 3 * h, fv, acc);
+    }
+    if (groupMoves) {
+      c.groupMove2[grp] = _mm512_reduce_max_pd(acc.maxc) * c.moveScale2;
+      acc.maxc = _mm512_max_pd(acc.maxc, before);
     }
   }
   s.ke1 += _mm512_reduce_add_pd(acc.ke);

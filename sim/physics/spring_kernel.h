@@ -126,6 +126,11 @@ struct BlockStep {
   // read (a step without the monitor needs none of them).
   bool energy = true;
   double g[3] = {0, 0, 0};
+  // With the monitor's sums: per group, the largest squared velocity component times
+  // moveScale2 (dt² and room for roundings: a squared bound on the group's vertices'
+  // moves per coordinate), at groupMove2[grp]. Null: not taken.
+  double* groupMove2 = nullptr;
+  double moveScale2 = 0;
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
 // Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it

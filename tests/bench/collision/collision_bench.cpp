@@ -284,6 +284,8 @@ BENCHMARK(BM_BvhRefitFull)->Arg(16)->Arg(50)->Arg(158)->Arg(500)->ArgName("cells
 // range(1) um (0: tight boxes, full refits), amplitude range(2) um, a sine sag shape,
 // blades; step() (timed) refits as the physics' callers do (fat boxes with the step's
 // bound, or a full refit without a margin), then makes 4 blade queries.
+constexpr std::size_t kMoveGroup = 16;  // physics::Dynamics::kMoveGroup
+
 struct MovingScene {
   SurfaceMesh m;
   double margin, amp;
@@ -304,8 +306,12 @@ struct MovingScene {
     for (std::size_t v = 0; v < rest.size(); ++v)
       shape[v] = std::sin(rest[v].x() * 3.14159 / kSide) * std::sin(rest[v].y() * 3.14159 / kSide);
   }
-  void step(double bound) {
-    reanchored += margin > 0 ? bvh.refitMoved(m, bound) : (bvh.refit(m), m.nVertices());
+  // With groups (physics::Dynamics::groupMoves2: squared bounds per 16 vertices) the
+  // tree looks only at the fast groups (refitMovedGroups).
+  void step(double bound, std::span<const double> groups = {}) {
+    reanchored += margin <= 0      ? (bvh.refit(m), m.nVertices())
+                  : groups.empty() ? bvh.refitMoved(m, bound)
+                                   : bvh.refitMovedGroups(m, groups, kMoveGroup);
     for (int q = 0; q < 4; ++q) {
       const auto& s = segs[(4 * k + static_cast<std::size_t>(q)) % segs.size()];
       bvh.intersectSegment(m, s.first, s.second, out);
@@ -366,9 +372,11 @@ BENCHMARK(BM_BvhMovingTissue)
 // the top while everything sags by 20 um (period 400 steps); the bound is the step's
 // largest move, so passes come every few steps and re-anchor only the bump: the pass's
 // scan over every vertex is most of the cost (BM_BvhMovingTissue's coherent sag instead
-// makes most passes full refits).
+// makes most passes full refits). range(3) = 1: with the bounds per group of 16
+// vertices (Dynamics::groupMoves2) instead, so only the bump's groups are looked at.
 void BM_BvhMovingTissueLocal(benchmark::State& st) {
   MovingScene sc(st);
+  std::vector<double> groups;
   for (auto _ : st) {
     st.PauseTiming();
     const double t = static_cast<double>(sc.k);
@@ -376,21 +384,25 @@ void BM_BvhMovingTissueLocal(benchmark::State& st) {
     const double bump = sc.amp * std::sin(2.0 * 3.14159 * t / 40.0);
     const Vector3d c(0.3 * kSide + std::fmod(0.01 * t, 0.4 * kSide), 0.5 * kSide, 0.0);
     double bound = 0.0;
+    groups.assign(st.range(3) ? (sc.rest.size() + kMoveGroup - 1) / kMoveGroup : 0, 0.0);
     for (std::size_t v = 0; v < sc.rest.size(); ++v) {
       const double r2 = (sc.rest[v] - c).head<2>().squaredNorm();
       const double z = sc.rest[v].z() + sag * sc.shape[v] + (r2 < 25.0 ? bump * (1.0 - r2 / 25.0) : 0.0);
-      bound = std::max(bound, std::abs(z - sc.m.positions()[v].z()));
+      const double d = std::abs(z - sc.m.positions()[v].z());
+      bound = std::max(bound, d);
+      if (!groups.empty()) groups[v / kMoveGroup] = std::max(groups[v / kMoveGroup], d * d);
       sc.m.positions()[v].z() = z;
     }
     st.ResumeTiming();
-    sc.step(bound);
+    sc.step(bound, groups);
   }
   sc.counters(st);
 }
 BENCHMARK(BM_BvhMovingTissueLocal)
-    ->Args({158, 0, 300})
-    ->Args({158, 250, 300})
-    ->ArgNames({"cells", "margin_um", "bump_um"})
+    ->Args({158, 0, 300, 0})
+    ->Args({158, 250, 300, 0})
+    ->Args({158, 250, 300, 1})
+    ->ArgNames({"cells", "margin_um", "bump_um", "groups"})
     ->Unit(benchmark::kMicrosecond);
 
 // The fat-box pass's scan alone (refitMoved without a bound over vertices that all stay

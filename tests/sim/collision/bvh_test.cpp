@@ -228,6 +228,69 @@ TEST(TriangleBvh, FatBoxesWithAMoveBoundSkipPassesAndStayExact) {
   EXPECT_GT(passes, 0);
 }
 
+// With a bound per group of vertices (physics::Dynamics::groupMoves2) the few fast
+// vertices are looked at one by one and the bulk's small bound alone spends the slack:
+// far fewer passes than with the step's largest move, and every box still holds its
+// corners (check) and every query is exact, also with faces split between steps
+// (vertices past the groups), a group whose bound is not a number, and a tissue-wide
+// jump (more fast groups than the tree looks at one by one).
+TEST(TriangleBvh, FatBoxesWithGroupBoundsLookOnlyAtTheFastGroups) {
+  constexpr std::size_t G = 16;
+  std::mt19937_64 rng(31);
+  SegmentSource src(32);
+  std::uniform_real_distribution<double> U(-1.0, 1.0), S(0.05, 0.95);
+  SurfaceMesh m = testing::slab(16, 1.0, 2.0);
+  TriangleBvh byGroup(m), byMax(m);
+  const double margin = 0.1;
+  byGroup.setMotionMargin(m, margin);
+  byMax.setMotionMargin(m, margin);
+  EXPECT_THROW(byGroup.refitMovedGroups(m, {}, 0), CollisionError);
+  const double slow = 0.2 * TriangleBvh::kFastShare * margin;
+  // Two lips: a run of vertices that keeps moving fast in one direction.
+  std::vector<std::uint32_t> fast;
+  for (std::uint32_t v = 40; v < 46; ++v) fast.push_back(v);
+  for (std::uint32_t v = 300; v < 304; ++v) fast.push_back(v);
+  std::size_t reanchored = 0;
+  const int steps = testing::scaled(300);
+  for (int step = 0; step < steps; ++step) {
+    const std::vector<Vector3d> before = m.positions();
+    const bool jump = step == steps / 2;
+    for (Vector3d& p : m.positions()) p += (jump ? 10.0 : 1.0) * slow * Vector3d(U(rng), U(rng), U(rng));
+    for (std::uint32_t v : fast) m.positions()[v] += Vector3d(0.03, -0.02, 0.01 * U(rng));
+    std::vector<double> g2((before.size() + G - 1) / G, 0.0);
+    double largest = 0.0;
+    for (std::size_t v = 0; v < before.size(); ++v) {
+      const double d = (m.positions()[v] - before[v]).cwiseAbs().maxCoeff();
+      g2[v / G] = std::max(g2[v / G], d * d);
+      largest = std::max(largest, d);
+    }
+    if (step == 77) g2[3] = std::numeric_limits<double>::quiet_NaN();
+    if (step % 9 == 4) {  // the cutter splits a face: its new vertex is past the groups
+      const Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
+      double u = S(rng), v = S(rng);
+      if (u + v > 1) u = 1 - u, v = 1 - v;
+      const auto& vs = m.vertices(f);
+      const mesh::Vertex nv = m.splitFace(f, m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
+                                                 v * (m.position(vs[2]) - m.position(vs[0])));
+      ASSERT_TRUE(nv.isValid());
+      fast.push_back(nv.idx());  // and it moves fast from now on
+      byGroup.sync(m);
+      byMax.sync(m);
+    }
+    reanchored += byGroup.refitMovedGroups(m, g2, G);
+    byMax.refitMoved(m, largest);
+    ASSERT_EQ(byGroup.check(m), "") << "step " << step;
+    ASSERT_EQ(byMax.check(m), "") << "step " << step;
+    if (step % 5 == 0) expectBvhMatchesBruteForce(m, byGroup, src, 10);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  // The fast vertices leave their reach every few steps; with the largest move as the
+  // bound each time means a pass over everything, with the groups only theirs.
+  EXPECT_GT(byMax.motionPasses(), static_cast<std::size_t>(steps) / 5);
+  EXPECT_LT(byGroup.motionPasses(), byMax.motionPasses() / 4);
+  EXPECT_GT(reanchored, 10u * static_cast<std::size_t>(steps) / 8) << "the fast ones were re-anchored";
+}
+
 // The fat-box pass's scan in every build this CPU runs (portable, SSE2, AVX2, AVX-512):
 // forced in turn, automatic again at the end of the scope.
 std::vector<ScanKernel> scanKernels() {
@@ -281,6 +344,37 @@ TEST(TriangleBvh, ScanKernelsFindEveryLoudCoordinate) {
         }
       }
     }
+}
+
+// The group bounds' scan in every build against a reference: a bound past the limit,
+// NaN or infinite at any place (vector bodies and tails, every start) stops it there,
+// one exactly at the limit does not, and the largest bound passed over is the same to
+// the bit.
+TEST(TriangleBvh, ScanKernelsFindEveryLoudGroupBound) {
+  constexpr std::size_t n = 29;
+  const double limit = 0.0625;
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> B(0.0, limit);
+  std::vector<double> g0(n);
+  for (double& b : g0) b = B(rng);
+  const double bad[] = {limit * (1 + 1e-15), std::numeric_limits<double>::quiet_NaN(),
+                        std::numeric_limits<double>::infinity(), limit};
+  for (std::size_t p = 0; p < n; ++p)
+    for (std::size_t kind = 0; kind < std::size(bad); ++kind)
+      for (std::size_t from = 0; from < 10; ++from) {
+        std::vector<double> g = g0;
+        g[p] = bad[kind];
+        const bool loud = kind + 1 < std::size(bad);
+        const std::size_t want = loud && p >= from ? p : n;
+        double wantWorst = 0.01;
+        for (std::size_t i = from; i < want; ++i) wantWorst = std::max(wantWorst, g[i]);
+        for (ScanKernel k : scanKernels()) {
+          double worst = 0.01;
+          ASSERT_EQ(detail::scanQuietBounds(k, g.data(), from, n, limit, worst), want)
+              << scanKernelName(k) << " bound " << p << " kind " << kind << " from " << from;
+          ASSERT_EQ(worst, wantWorst) << scanKernelName(k) << " bound " << p << " kind " << kind << " from " << from;
+        }
+      }
 }
 
 // Anchoring: each coordinate rounded to the nearest float, in every build and for

@@ -463,6 +463,33 @@ TEST(CutterPhysics, PreStretchedSlabOpensAlongACut) {
   EXPECT_TRUE(e.objects()[0].mesh.validate().ok());
 }
 
+// A 60 x 40 x 5 mm tissue box in an engine with fat collision boxes, and its physics,
+// set up as `cut --physics on` does.
+struct MovingBox {
+  physics::TissueParams tissue;
+  CutEngine engine;
+  int id = 0;
+  physics::Params pp;
+  physics::Dynamics dyn;
+  static physics::TissueParams steppedAt1kHz() {
+    physics::TissueParams t;
+    t.massFloorDt = 1e-3;  // as every caller steps it
+    return t;
+  }
+  static CutParams withMargin(const physics::TissueParams& t) {
+    CutParams params;
+    params.tissue = t;
+    params.collisionMargin = 0.25;
+    return params;
+  }
+  MovingBox() : tissue(steppedAt1kHz()), engine(withMargin(tissue)) {
+    mesh::SurfaceMesh m = test::makeBox(Vec3(-30, -20, -2.5), Vec3(30, 20, 2.5), {40, 27, 4});
+    physics::attachTissueProperties(m, tissue);
+    id = engine.addObject(std::move(m));
+    pp.tissue = tissue;
+  }
+};
+
 // A groove cut while physics moves the tissue (pre-stretched, the cut opening behind the
 // blade, as `cut --physics on` and the window do) costs about as many triangles per cut
 // triangle as on still tissue: the groove's bottom is kept on its line in the rest frame,
@@ -475,24 +502,15 @@ TEST(CutterPhysics, GrooveOnMovingTissueReusesItsBottomVertices) {
     double opening = 0.0;
   };
   auto run = [](bool moving) {
-    physics::TissueParams tissue;
-    tissue.massFloorDt = 1e-3;  // as every caller steps it
-    CutParams params;
-    params.tissue = tissue;
-    params.collisionMargin = 0.25;
-    mesh::SurfaceMesh m = test::makeBox(Vec3(-30, -20, -2.5), Vec3(30, 20, 2.5), {40, 27, 4});
-    physics::attachTissueProperties(m, tissue);
-    CutEngine e(params);
-    const int id = e.addObject(std::move(m));
-    physics::Params pp;
-    pp.tissue = tissue;
-    physics::Dynamics dyn;
+    MovingBox box;
+    CutEngine& e = box.engine;
+    const int id = box.id;
     int sample = 0;
     const double y = 1.37;
     test::stroke(e, Vec3(-35, y, 1.7), Vec3(35, y + 2.3, 1.7), Vec3(0, 0, -1), 20.0, 1000.0, [&](CutEngine& en) {
       if (moving) {
-        physics::step(pp, dyn, en.meshToMove(id), 1e-3);
-        en.verticesMovedWithin(id, dyn.maxMove);
+        physics::step(box.pp, box.dyn, en.meshToMove(id), 1e-3);
+        en.verticesMovedWithin(id, box.dyn.maxMove);
       }
       if (++sample % 25 == 0) expectSound(en, true);
     });
@@ -511,6 +529,41 @@ TEST(CutterPhysics, GrooveOnMovingTissueReusesItsBottomVertices) {
   const double perMoving = static_cast<double>(moving.added) / static_cast<double>(moving.cut);
   // (Here: still 4.10, moving 4.40; with the bottom's line in the world frame 5.47.)
   EXPECT_LE(perMoving, perStill + 0.5) << "still " << perStill << ", moving " << perMoving;
+}
+
+// The physics' bound per vertex group (Dynamics::groupMoves2) changes only how the
+// collision tree is kept (fewer passes over the vertices), never what it answers: the
+// same stroke on the same moving tissue cuts the same mesh as with the step's largest
+// move alone, to the bit.
+TEST(CutterPhysics, GroupMoveBoundsCutWhatTheLargestMoveCuts) {
+  struct Result {
+    mesh::SurfaceMesh mesh;
+    long passes = 0, cut = 0;
+  };
+  auto run = [](bool groups) {
+    MovingBox box;
+    CutEngine& e = box.engine;
+    const int id = box.id;
+    physics::Dynamics& dyn = box.dyn;
+    test::stroke(e, Vec3(-35, 1.37, 1.7), Vec3(35, 3.67, 1.7), Vec3(0, 0, -1), 20.0, 1000.0, [&](CutEngine& en) {
+      physics::step(box.pp, dyn, en.meshToMove(id), 1e-3);
+      if (groups)
+        en.verticesMovedWithin(id, dyn.maxMove, dyn.groupMoves2(), physics::Dynamics::kMoveGroup);
+      else
+        en.verticesMovedWithin(id, dyn.maxMove);
+    });
+    EXPECT_THROW(e.verticesMovedWithin(id, 0.0, dyn.groupMoves2(), 0), CutError);
+    expectSound(e, true);
+    return Result{e.objects()[0].mesh, e.stats().marginPasses, e.stats().trianglesCut};
+  };
+  const Result byMax = run(false), byGroup = run(true);
+  ASSERT_GT(byMax.cut, 50);
+  EXPECT_EQ(byGroup.cut, byMax.cut);
+  ASSERT_EQ(byGroup.mesh.nFaces(), byMax.mesh.nFaces());
+  EXPECT_EQ(byGroup.mesh.positions(), byMax.mesh.positions());
+  for (std::uint32_t f = 0; f < byMax.mesh.facesSize(); ++f)
+    ASSERT_EQ(byGroup.mesh.vertices(mesh::Face(f)), byMax.mesh.vertices(mesh::Face(f))) << "face " << f;
+  EXPECT_LT(byGroup.passes, byMax.passes) << "the groups spare passes over the vertices";
 }
 
 // An open sheet folded eight times (an accordion of layers 0.5 mm apart, joined at

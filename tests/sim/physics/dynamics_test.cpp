@@ -1,5 +1,6 @@
 // Stepping a mesh owned elsewhere (Dynamics + mesh) gives exactly what a State gives,
 // and picks up topology edits made between steps.
+#include <cfloat>
 #include <cmath>
 #include <limits>
 
@@ -7,6 +8,7 @@
 
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/scenes.h"
+#include "sim/physics/spring_kernel.h"
 #include "tests/support/test_support.h"
 
 namespace ld::physics {
@@ -129,6 +131,59 @@ TEST(Dynamics, MaxMoveBoundsTheStepsLargestMove) {
   State s = pushedGrid(off);
   step(off, s, 1e-3);
   EXPECT_EQ(s.maxMove, std::numeric_limits<double>::infinity()) << "the monitor's sums are off";
+}
+
+// Dynamics::groupMoves2 bounds each group of kMoveGroup vertices' moves apart (what a
+// collision tree looks at the fast vertices by): on every kernel, with one and two
+// threads (a grid past the two-thread size), tight, with the largest group at
+// maxMove; empty where maxMove is unknown.
+TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
+  constexpr std::size_t G = Dynamics::kMoveGroup;
+  for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
+    if (!detail::kernelSupported(kernel)) continue;
+    ASSERT_TRUE(detail::forceKernel(kernel));
+    for (int threads : {1, 2}) {
+      Params p;
+      p.threads = threads;
+      State s = makeState(makeGrid(50, 50, 3.0), p.tissue);  // 2601 vertices, a partial last group
+      s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
+      std::size_t checked = 0, quiet = 0;
+      for (int i = 0; i < 60; ++i) {
+        const std::vector<Vec3> before = s.mesh.positions();
+        const StepInfo info = step(p, s, 1e-3);
+        const auto g2 = s.groupMoves2();
+        if (!(info.accepted && info.substeps == 1)) {
+          EXPECT_TRUE(g2.empty());
+          continue;
+        }
+        const std::size_t n = before.size();
+        ASSERT_EQ(g2.size(), (n + G - 1) / G) << detail::kernelName(kernel);
+        double largest = 0.0;
+        for (std::size_t g = 0; g < g2.size(); ++g) {
+          double moved = 0.0;
+          for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v)
+            moved = std::max(moved, (s.mesh.positions()[v] - before[v]).cwiseAbs().maxCoeff());
+          const double bound = std::sqrt(g2[g]);
+          // (Up to the rounding of x + dx, a few ulps of the coordinates, as maxMove.)
+          ASSERT_LE(moved, bound + 4.0 * DBL_EPSILON * 150.0)
+              << detail::kernelName(kernel) << " threads " << threads << " step " << i << " group " << g;
+          ASSERT_LE(bound, 1.001 * moved + 1e-12) << "a bound, but not a loose one";
+          largest = std::max(largest, bound);
+          quiet += bound < 0.1 * s.maxMove;
+          ++checked;
+        }
+        EXPECT_NEAR(largest, s.maxMove, 1e-9 * s.maxMove) << "the largest group moved the most";
+      }
+      EXPECT_GT(checked, 1000u);
+      EXPECT_GT(quiet, 0u) << "groups far from the push move less than the step's largest move";
+    }
+  }
+  detail::forceKernel(std::nullopt);
+  Params off;
+  off.stability.enabled = false;
+  State s = pushedGrid(off);
+  step(off, s, 1e-3);
+  EXPECT_TRUE(s.groupMoves2().empty()) << "the monitor's sums are off";
 }
 
 }  // namespace
