@@ -852,8 +852,7 @@ std::size_t TriangleBvh::refitMovedGroups(const mesh::SurfaceMesh& m, std::span<
       unknown = true;  // not a number: the group is looked at
   }
   const std::size_t checked = fastGroups.size() * groupSize + (nv - covered);
-  const double pad = 4.0 * DBL_EPSILON * padScale_;  // as in refitMoved
-  const double bulk = std::sqrt(bulk2) + pad;
+  const double bulk = std::sqrt(bulk2) + 4.0 * DBL_EPSILON * padScale_;  // (pad as in refitMoved)
   // Looking at the fast ones every step pays while that reads well under the passes it
   // spares (all vertices, about every margin / (2 fastest move) steps at this pace): at
   // most a quarter of that, for the scan of the bounds and the per-group work (at half,
@@ -861,15 +860,9 @@ std::size_t TriangleBvh::refitMovedGroups(const mesh::SurfaceMesh& m, std::span<
   // with many fast ones (a sag, the first steps of a drop), nor with the slack spent.
   const bool few = checked <= nv / 4 && (unknown || static_cast<double>(checked) * 2.0 * margin_ <=
                                                         static_cast<double>(nv) * std::sqrt(all2));
-  if (!few || bulk > slack_) {
-    const bool known = !unknown && std::isfinite(all2);
-    const double move = known ? std::sqrt(std::max(all2, bulk2)) + pad : std::numeric_limits<double>::infinity();
-    if (move <= slack_) {
-      slack_ -= move;
-      return 0;
-    }
-    return motionPass(m, known ? 0.5 * margin_ : margin_);
-  }
+  if (!few || bulk > slack_)
+    return refitMoved(m, !unknown && std::isfinite(all2) ? std::sqrt(std::max(all2, bulk2))
+                                                         : std::numeric_limits<double>::infinity());
   // The others moved at most `bulk`: the slack pays for them. The fast ones and those
   // past the groups (no bound) are looked at; one that left the reach the new slack
   // leaves is re-anchored.

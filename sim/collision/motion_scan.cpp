@@ -46,6 +46,9 @@ std::size_t scanPortable(const double* x, const float* a, std::size_t b, std::si
 }
 
 #if defined(__SSE2__)
+// The larger of a register's two lanes (a running maximum handed back to the caller).
+inline double lanesMax(__m128d v) { return std::max(_mm_cvtsd_f64(v), _mm_cvtsd_f64(_mm_unpackhi_pd(v, v))); }
+
 // Two floats (8 bytes) widened to two doubles.
 inline __m128d widen2(const float* p) {
   return _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
@@ -78,12 +81,16 @@ std::size_t scanSse2(const double* x, const float* a, std::size_t b, std::size_t
     if (_mm_movemask_pd(_mm_or_pd(_mm_cmpnle_pd(big, th), _mm_cmpunord_pd(sum, sum))) != 0) break;
     worstV = _mm_max_pd(worstV, big);
   }
-  worst = std::max(_mm_cvtsd_f64(worstV), _mm_cvtsd_f64(_mm_unpackhi_pd(worstV, worstV)));
+  worst = lanesMax(worstV);
   return b;
 }
 #endif
 
 #ifdef LD_SCAN_X86
+LD_AVX2 inline double lanesMax(__m256d v) {
+  return lanesMax(_mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1)));
+}
+
 LD_AVX2 std::size_t scanAvx2(const double* x, const float* a, std::size_t b, std::size_t nb, double theta,
                              double& worst) {
   // As the SSE2 build, 4 lanes: 6 differences a block, each anchor load widened as it
@@ -106,8 +113,7 @@ LD_AVX2 std::size_t scanAvx2(const double* x, const float* a, std::size_t b, std
     if (_mm256_movemask_pd(loud) != 0) break;
     worstV = _mm256_max_pd(worstV, big);
   }
-  const __m128d w = _mm_max_pd(_mm256_castpd256_pd128(worstV), _mm256_extractf128_pd(worstV, 1));
-  worst = std::max(_mm_cvtsd_f64(w), _mm_cvtsd_f64(_mm_unpackhi_pd(w, w)));
+  worst = lanesMax(worstV);
   return b;
 }
 
@@ -155,7 +161,7 @@ std::size_t boundsSse2(const double* g, std::size_t i, std::size_t n, double lim
     if (_mm_movemask_pd(_mm_cmpnle_pd(v, lim)) != 0) break;
     w = _mm_max_pd(w, v);
   }
-  worst = std::max(_mm_cvtsd_f64(w), _mm_cvtsd_f64(_mm_unpackhi_pd(w, w)));
+  worst = lanesMax(w);
   return boundsPortable(g, i, n, limit, worst);
 }
 #endif
@@ -169,8 +175,7 @@ LD_AVX2 std::size_t boundsAvx2(const double* g, std::size_t i, std::size_t n, do
     if (_mm256_movemask_pd(_mm256_cmp_pd(v, lim, _CMP_NLE_UQ)) != 0) break;
     w = _mm256_max_pd(w, v);
   }
-  const __m128d h = _mm_max_pd(_mm256_castpd256_pd128(w), _mm256_extractf128_pd(w, 1));
-  worst = std::max(_mm_cvtsd_f64(h), _mm_cvtsd_f64(_mm_unpackhi_pd(h, h)));
+  worst = lanesMax(w);
   return boundsPortable(g, i, n, limit, worst);
 }
 
