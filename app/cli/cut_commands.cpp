@@ -71,6 +71,7 @@ int cut(const Args& args) {
   physics::Params pp;
   pp.tissue = tissue;
   pp.active.enabled = regionMode == "on";
+  pp.groupMoves = true;                                      // for the collision tree (verticesMovedWithin below)
   std::vector<std::unique_ptr<physics::Dynamics>> dynamics;  // stable addresses
   std::vector<int> dynamicsOf;
   double physicsSeconds = 0.0;

@@ -894,15 +894,21 @@ struct SymplecticJob {
 // thread).
 // energy off: the sums the monitor alone needs (spring energy, Σ K_i|v1_i|², kinetic
 // energy, work, largest component) are not taken (spring0 then holds the added
-// springs' energy only); v2 and home1 still show a non-finite step.
+// springs' energy only); v2 and home1 still show a non-finite step. groupMoves (with
+// energy): each vertex group's move bound into c.groupMove2 (Dynamics::groupMoves2),
+// else that is left empty.
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
-                          int threads, bool energy = true) {
+                          int threads, bool energy = true, bool groupMoves = false) {
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
   const detail::Kernel kern = detail::activeKernel();
   const std::size_t ng = c.extraGroup.size();
-  if (energy) c.groupMove2.resize(ng);
+  groupMoves = groupMoves && energy;
+  if (groupMoves)
+    c.groupMove2.resize(ng);
+  else
+    c.groupMove2.clear();
   const SymplecticArgs args{&w,
                             &c,
                             x0,
@@ -914,7 +920,7 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
                             kern,
                             energy,
                             detail::activeFactor(kern) == detail::Factor::Rsqrt,
-                            energy ? c.groupMove2.data() : nullptr};
+                            groupMoves ? c.groupMove2.data() : nullptr};
   const double added = addedSprings(w, raw(x0), f4);
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
@@ -1176,7 +1182,7 @@ struct Outcome {
 Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View& w, Cache& c, const Vec3* x0,
                 const Vec3* v0, Vec3* x1, Vec3* v1, double dt, double budget) {
   if (m == Method::SymplecticEuler) {
-    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled);
+    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled, p.groupMoves);
     if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
     // x1 = x0 + dt v1 per coordinate, and maxComp2 is the largest squared component of
     // v1 (taken with the monitor's sums): the step's largest move, with room for roundings.

@@ -93,6 +93,10 @@ struct Params {
   double cgTolerance = 1e-8;
   int cgMaxIterations = 200;
   int xpbdIterations = 4;  // Gauss–Seidel sweeps per xpbd step
+  // The symplectic step also writes each vertex group's move bound
+  // (Dynamics::groupMoves2, for a collision tree with fat boxes; ~1 % of the step's
+  // instructions, so only for a caller that reads it).
+  bool groupMoves = false;
 };
 
 // What the stability monitor recorded.
@@ -255,11 +259,11 @@ struct Dynamics {
   // method other than symplectic Euler, the monitor off, substeps, a fallback, the
   // active-region step, rawStep).
   double maxMove = std::numeric_limits<double>::infinity();
-  // After step(), when maxMove is finite: per group of kMoveGroup consecutive vertices
+  // After step() with Params::groupMoves, when maxMove is finite: per group of kMoveGroup consecutive vertices
   // (vertex v in group v / kMoveGroup), the square of a bound on how far any of them
   // moved in it, per coordinate [mm²], as maxMove up to the rounding of x + dx
   // (TriangleBvh::refitMovedGroups: the few fast vertices apart from the bulk). Empty
-  // when maxMove is not finite.
+  // without Params::groupMoves or when maxMove is not finite.
   static constexpr std::size_t kMoveGroup = 16;
   [[nodiscard]] std::span<const double> groupMoves2() const {
     if (!std::isfinite(maxMove)) return {};

@@ -487,6 +487,7 @@ struct MovingBox {
     physics::attachTissueProperties(m, tissue);
     id = engine.addObject(std::move(m));
     pp.tissue = tissue;
+    pp.groupMoves = true;  // (read only by the tests that hand them on)
   }
 };
 

@@ -136,7 +136,7 @@ TEST(Dynamics, MaxMoveBoundsTheStepsLargestMove) {
 // Dynamics::groupMoves2 bounds each group of kMoveGroup vertices' moves apart (what a
 // collision tree looks at the fast vertices by): on every kernel, with one and two
 // threads (a grid past the two-thread size), tight, with the largest group at
-// maxMove; empty where maxMove is unknown.
+// maxMove; empty where maxMove is unknown or Params::groupMoves is off.
 TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
   constexpr std::size_t G = Dynamics::kMoveGroup;
   for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
@@ -145,6 +145,7 @@ TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
     for (int threads : {1, 2}) {
       Params p;
       p.threads = threads;
+      p.groupMoves = true;
       State s = makeState(makeGrid(50, 50, 3.0), p.tissue);  // 2601 vertices, a partial last group
       s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
       std::size_t checked = 0, quiet = 0;
@@ -179,7 +180,13 @@ TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
     }
   }
   detail::forceKernel(std::nullopt);
+  Params unasked;
+  State u = pushedGrid(unasked);
+  step(unasked, u, 1e-3);
+  ASSERT_TRUE(std::isfinite(u.maxMove));
+  EXPECT_TRUE(u.groupMoves2().empty()) << "only taken when asked for";
   Params off;
+  off.groupMoves = true;
   off.stability.enabled = false;
   State s = pushedGrid(off);
   step(off, s, 1e-3);
