@@ -71,7 +71,7 @@ int cut(const Args& args) {
   physics::Params pp;
   pp.tissue = tissue;
   pp.active.enabled = regionMode == "on";
-  pp.groupMoves = true;                                      // for the collision tree (verticesMovedWithin below)
+  pp.groupMoves = true;                                      // for the collision tree (verticesTravelled below)
   std::vector<std::unique_ptr<physics::Dynamics>> dynamics;  // stable addresses
   std::vector<int> dynamicsOf;
   double physicsSeconds = 0.0;
@@ -89,6 +89,9 @@ int cut(const Args& args) {
       }
       const int substeps = std::max(1, static_cast<int>(std::ceil(dt / kPhysicsDt - 1e-9)));
       mesh::SurfaceMesh& mesh = engine.meshToMove(id);
+      // Each group's travel summed by the physics, against this object's tree.
+      pp.travelLimit = engine.travelLimit(id);
+      pp.travelPad = engine.travelPad(id);
       for (int j = 0; j < substeps; ++j) {
         const auto t0 = std::chrono::steady_clock::now();
         physics::step(pp, *dynamics[k], mesh, dt / substeps);
@@ -98,8 +101,9 @@ int cut(const Args& args) {
         if (const auto moved = physics::movedVertices(*dynamics[k]))
           engine.verticesMoved(id, *moved);
         else
-          engine.verticesMovedWithin(id, dynamics[k]->maxMove, dynamics[k]->groupMoves2(),
-                                     physics::Dynamics::kMoveGroup);
+          engine.verticesTravelled(id, dynamics[k]->maxMove, dynamics[k]->groupTravel(), dynamics[k]->groupsPastLimit(),
+                                   physics::Dynamics::kMoveGroup);
+        dynamics[k]->clearGroupsPastLimit();
       }
     }
   };

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <type_traits>
@@ -236,7 +237,7 @@ void TriangleBvh::fitBlock(const Vector3d* X, std::uint32_t b) {
     // Fat box around the anchors; a corner that left its anchor's reach is
     // re-anchored here, and its other leaves are refitted after this round.
     const BlockVerts& bv = blockVerts_[b];
-    const double limit = margin_ - slack_;
+    const double limit = anchorReach();
     for (std::uint32_t j = 0; j < bv.n; ++j) {
       const std::uint32_t v = bv.v[j];
       const Vector3d a = anchor_[v].cast<double>();
@@ -528,6 +529,7 @@ void TriangleBvh::buildNode(const mesh::SurfaceMesh& m, std::uint32_t node, Buil
 }
 
 void TriangleBvh::build(const mesh::SurfaceMesh& m) {
+  travelling_ = false;
   nodes_.clear();
   parent_.clear();
   blocks_.clear();
@@ -720,6 +722,7 @@ void TriangleBvh::refit(const mesh::SurfaceMesh& m) {
   // anchors just written (the positions rounded to float; the rounding is the only
   // grow left), without fitBlock's per-corner anchor test (which cannot fire here and
   // was about half of the refit's time).
+  travelling_ = false;
   if (margin_ > 0.0) {  // every vertex anchored where it is
     static_assert(sizeof(Vector3d) == 3 * sizeof(double) && sizeof(Eigen::Vector3f) == 3 * sizeof(float));
     anchor_.resize(m.verticesSize());
@@ -796,6 +799,7 @@ void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
     throw CollisionError("TriangleBvh::setMotionMargin: margin must be finite and >= 0");
   margin_ = margin;
   slack_ = margin;
+  travelling_ = false;
   if (margin_ == 0.0) {
     anchor_.clear();
     anchor_.shrink_to_fit();
@@ -805,6 +809,7 @@ void TriangleBvh::setMotionMargin(const mesh::SurfaceMesh& m, double margin) {
 
 std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) {
   checkMesh(m, "refitMoved");
+  travelling_ = false;  // (slack_ is 0 then: the bound below finds no room)
   if (margin_ <= 0.0) {
     refit(m);
     return m.nVertices();
@@ -822,83 +827,115 @@ std::size_t TriangleBvh::refitMoved(const mesh::SurfaceMesh& m, double maxMove) 
   return motionPass(m, std::isfinite(maxMove) ? 0.5 * margin_ : margin_);
 }
 
-std::size_t TriangleBvh::refitMovedGroups(const mesh::SurfaceMesh& m, std::span<const double> groupMoves2,
-                                          std::size_t groupSize) {
-  checkMesh(m, "refitMovedGroups");
-  if (groupSize == 0) throw CollisionError("TriangleBvh::refitMovedGroups: groupSize must be > 0");
+std::size_t TriangleBvh::refitTravelled(const mesh::SurfaceMesh& m, std::span<double> travel,
+                                        std::span<const std::uint32_t> past, std::size_t groupSize) {
+  checkMesh(m, "refitTravelled");
+  if (groupSize == 0) throw CollisionError("TriangleBvh::refitTravelled: groupSize must be > 0");
   if (margin_ <= 0.0) {
     refit(m);
     return m.nVertices();
   }
   if (anchor_.size() < m.verticesSize()) growAnchors(m);
   const std::size_t nv = m.verticesSize();
-  const std::size_t groups = std::min(groupMoves2.size(), (nv + groupSize - 1) / groupSize);
+  const std::size_t groups = std::min(travel.size(), (nv + groupSize - 1) / groupSize);
   const std::size_t covered = std::min(nv, groups * groupSize);
-  // Fast: a group whose bound is over a small share of the margin (or not a number).
-  const double fast = kFastShare * margin_, fast2 = fast * fast;
-  double bulk2 = 0.0, all2 = 0.0;
-  bool unknown = covered < nv;
-  std::vector<std::uint32_t>& fastGroups = staleWork_;  // (free here, as in motionPass)
-  fastGroups.clear();
-  const ScanKernel kernel = activeScanKernel();
-  for (std::size_t g = 0;; ++g) {
-    g = detail::scanQuietBounds(kernel, groupMoves2.data(), g, groups, fast2, bulk2);
-    if (g >= groups) break;
-    fastGroups.push_back(static_cast<std::uint32_t>(g));
-    const double b2 = groupMoves2[g];
-    if (b2 > fast2)
-      all2 = std::max(all2, b2);
-    else
-      unknown = true;  // not a number: the group is looked at
+  const double reach = kTravelReach * margin_;
+  // Coming into the mode (the entries may hold anything: sums from before another
+  // refit, or none of the moves since), or with many groups listed (a drop, a
+  // renumbering): one pass brings every vertex within the reach, and every entry starts
+  // from what the farthest of them left.
+  if (!travelling_ || past.size() * groupSize > nv / 4) {
+    travelling_ = false;
+    const std::size_t anchored = motionPass(m, reach);
+    std::fill(travel.begin(), travel.begin() + static_cast<std::ptrdiff_t>(groups), (margin_ - slack_) - reach);
+    travelling_ = true;
+    slack_ = 0.0;
+    return anchored;
   }
-  const std::size_t checked = fastGroups.size() * groupSize + (nv - covered);
-  const double bulk = std::sqrt(bulk2) + 4.0 * DBL_EPSILON * padScale_;  // (pad as in refitMoved)
-  // Looking at the fast ones every step pays while that reads well under the passes it
-  // spares (all vertices, about every margin / (2 fastest move) steps at this pace): at
-  // most a quarter of that, for the scan of the bounds and the per-group work (at half,
-  // the default slab's collision took 9 % more instructions than with refitMoved). Not
-  // with many fast ones (a sag, the first steps of a drop), nor with the slack spent.
-  const bool few = checked <= nv / 4 && (unknown || static_cast<double>(checked) * 2.0 * margin_ <=
-                                                        static_cast<double>(nv) * std::sqrt(all2));
-  if (!few || bulk > slack_)
-    return refitMoved(m, !unknown && std::isfinite(all2) ? std::sqrt(std::max(all2, bulk2))
-                                                         : std::numeric_limits<double>::infinity());
-  // The others moved at most `bulk`: the slack pays for them. The fast ones and those
-  // past the groups (no bound) are looked at; one that left the reach the new slack
-  // leaves is re-anchored.
-  slack_ -= bulk;
-  const double limit = margin_ - slack_;
   const Vector3d* X = m.positions().data();
-  std::vector<std::uint32_t>& moving = fastMoving_;
+  std::vector<std::uint32_t>& moving = moving_;
   moving.clear();
-  const auto oneByOne = [&](std::size_t v0, std::size_t v1) {
-    for (std::size_t v = v0; v < v1; ++v)
-      if (!((X[v] - anchor_[v].cast<double>()).cwiseAbs().maxCoeff() <= limit))
-        moving.push_back(static_cast<std::uint32_t>(v));
-  };
-  // Whole blocks of 8 through the pass's scan; only a block with a vertex past the
-  // limit, and what is not a whole block, one by one.
-  const std::size_t nb = nv / 8;
+  // The farthest vertex of [v0, v1) that stays; those past the reach are re-anchored.
   const auto look = [&](std::size_t v0, std::size_t v1) {
-    std::size_t b = (v0 + 7) / 8;
-    const std::size_t bEnd = std::min(v1 / 8, nb);
-    if (b >= bEnd) return oneByOne(v0, v1);
-    oneByOne(v0, 8 * b);
-    for (double unused = 0.0;; ++b) {
-      b = detail::scanQuietBlocks(kernel, X[0].data(), anchor_[0].data(), b, bEnd, limit, unused);
-      if (b >= bEnd) break;
-      oneByOne(8 * b, 8 * b + 8);
+    double worst = 0.0;
+    for (std::size_t v = v0; v < v1; ++v) {
+      const double d = (X[v] - anchor_[v].cast<double>()).cwiseAbs().maxCoeff();
+      if (d <= reach)
+        worst = std::max(worst, d);
+      else
+        moving.push_back(static_cast<std::uint32_t>(v));
     }
-    oneByOne(8 * bEnd, v1);
+    return worst;
   };
-  for (std::uint32_t g : fastGroups) look(g * groupSize, std::min(nv, (g + 1) * groupSize));
+  // The listed groups are cold (the step streamed the whole mesh since): their loads
+  // are started together rather than one miss after another.
+  for (std::uint32_t g : past) {
+    if (g >= groups) continue;
+    const auto* x = reinterpret_cast<const char*>(X + g * groupSize);
+    const auto* a = reinterpret_cast<const char*>(anchor_.data() + g * groupSize);
+    for (std::size_t o = 0; o < groupSize * sizeof(Vector3d); o += 64) __builtin_prefetch(x + o);
+    for (std::size_t o = 0; o < groupSize * sizeof(Eigen::Vector3f); o += 64) __builtin_prefetch(a + o);
+  }
+  // A group that swung back and forth moved less than its entry says: the entry
+  // restarts below 0, by what the farthest of its vertices has left of the reach.
+  for (std::uint32_t g : past)
+    if (g < groups) travel[g] = look(g * groupSize, std::min(nv, (g + 1) * groupSize)) - reach;
   look(covered, nv);
   return reanchor(m, moving);
+}
+
+bool TriangleBvh::sameBox(const Node& a, const Node& b) {
+  return std::memcmp(a.lo, b.lo, sizeof a.lo) == 0 && std::memcmp(a.hi, b.hi, sizeof a.hi) == 0;
+}
+
+void TriangleBvh::fitUpwards(const mesh::SurfaceMesh& m, std::uint32_t leaf) {
+  Node before = nodes_[leaf];
+  fitLeaf(m, leaf);
+  // An ancestor whose box comes out as it was: the ones above it hold as they are.
+  for (std::uint32_t i = leaf; !sameBox(before, nodes_[i]);) {
+    i = parent_[i];
+    if (i == kNone) return;
+    before = nodes_[i];
+    fitInner(i);
+  }
 }
 
 std::size_t TriangleBvh::reanchor(const mesh::SurfaceMesh& m, const std::vector<std::uint32_t>& vertices) {
   if (vertices.empty()) return 0;
   const Vector3d* X = m.positions().data();
+  if (vertices.size() <= kFewReanchors) {
+    // A few vertices (the steps of refitTravelled): each of their leaves is fitted and
+    // its ancestors only while their boxes change. A vertex moved by less than the
+    // margin seldom changes a box many levels up, and the climb to the root (cold
+    // nodes, each a miss) was most of the cost. Leaves shared by several vertices are
+    // fitted once a round.
+    std::vector<std::uint32_t>& leaves = fewLeaves_;
+    const auto collect = [&](std::uint32_t v) {
+      if (!m.isValid(Vertex(v))) return;
+      for (mesh::Edge e : m.edges(Vertex(v)))
+        for (int k = 0; k < 2; ++k) {
+          const Face f = m.face(e, k);
+          if (f.idx() >= faceSlot_.size() || faceSlot_[f.idx()] == kNone) continue;
+          const std::uint32_t leaf = blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity];
+          if (std::find(leaves.begin(), leaves.end(), leaf) == leaves.end()) leaves.push_back(leaf);
+        }
+    };
+    leaves.clear();
+    for (std::uint32_t v : vertices) {
+      anchor_[v] = X[v].cast<float>();
+      collect(v);
+    }
+    while (!leaves.empty()) {
+      for (std::uint32_t leaf : leaves) fitUpwards(m, leaf);
+      // Corners the fits re-anchored: their other leaves follow (each round re-anchors
+      // only vertices not re-anchored before, so it ends).
+      leaves.clear();
+      fewStale_.swap(stale_);  // (not staleWork_: `vertices` may be it)
+      stale_.clear();
+      for (std::uint32_t v : fewStale_) collect(v);
+    }
+    return vertices.size();
+  }
   beginRefit();
   for (std::uint32_t v : vertices) {
     anchor_[v] = X[v].cast<float>();
@@ -1000,8 +1037,17 @@ inline void TriangleBvh::addVertexLeaves(const mesh::SurfaceMesh& m, Vertex v) {
     }
 }
 
+void TriangleBvh::anchorMoved(const mesh::SurfaceMesh& m, std::uint32_t v) {
+  // In refitTravelled's mode a group's entry may be below 0, less than a vertex
+  // moved by someone else could be from its anchor: such a vertex is anchored anew.
+  if (anchor_.size() < m.verticesSize()) growAnchors(m);
+  if (v < anchor_.size()) anchor_[v] = m.positions()[v].cast<float>();
+}
+
 void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const Vertex> moved) {
   checkMesh(m, "refitVertices");
+  if (travelling_)
+    for (Vertex v : moved) anchorMoved(m, v.idx());
   beginRefit();
   for (Vertex v : moved) addVertexLeaves(m, v);
   finishRefit(m);
@@ -1010,6 +1056,8 @@ void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const Vert
 void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved) {
   static_assert(sizeof(Vertex) == sizeof(std::uint32_t));
   checkMesh(m, "refitVertices");
+  if (travelling_)
+    for (std::uint32_t v : moved) anchorMoved(m, v);
   beginRefit();
   for (std::uint32_t i : moved) addVertexLeaves(m, Vertex(i));
   finishRefit(m);
@@ -1184,6 +1232,7 @@ void TriangleBvh::removeTracked(const mesh::SurfaceMesh& m, std::span<const Face
 }
 
 SyncResult TriangleBvh::remap(const mesh::SurfaceMesh& m, const mesh::Compaction& c) {
+  travelling_ = false;  // renumbered: the groups hold other vertices
   // Already on this layout (synced since): the maps are stale, the tree is not.
   if (built_ && m.layoutVersion() == seenLayout_) return sync(m);
   // Maps from a mesh other than the one the tree knew: start over.

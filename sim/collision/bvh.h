@@ -25,6 +25,7 @@
 //  * or tell it directly -> insertFaces()/removeFaces()/refitFaces().
 // After garbageCollection() sync() notices and rebuilds (build() is always safe).
 // Boxes are tested grown by the tolerance, so boundary hits are never culled.
+#include <cfloat>
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -117,18 +118,31 @@ class TriangleBvh {
   // left, nothing is read at all. Without a margin: refit(). Returns the vertices
   // re-anchored (all of them for a refit()).
   std::size_t refitMoved(const mesh::SurfaceMesh& m, double maxMove = std::numeric_limits<double>::infinity());
-  // As refitMoved, with a bound per group of `groupSize` consecutive vertices (vertex v
-  // in group v / groupSize), squared: how far any of them moved since the last call,
-  // per coordinate (e.g. physics::Dynamics::groupMoves2()). Only the bulk's bound is
-  // taken from the slack; the vertices of the few groups that moved farther than
-  // kFastShare of the margin (a lip retracting), and those past the groups, are looked
-  // at one by one and re-anchored once they leave their reach. So a handful of fast
-  // vertices no longer set off a pass over all of them every few steps. When looking
-  // at the fast groups would read more than the passes it spares, or with the slack
-  // spent: as refitMoved. Returns the vertices re-anchored (all of them for a
-  // refit()). Throws for groupSize 0.
-  std::size_t refitMovedGroups(const mesh::SurfaceMesh& m, std::span<const double> groupMoves2, std::size_t groupSize);
-  static constexpr double kFastShare = 1.0 / 64.0;
+  // For tissue whose physics sums each vertex group's moves (physics::Dynamics::
+  // groupTravel(): per group of `groupSize` consecutive vertices (v in group
+  // v / groupSize), a bound on how far any of them moved, per coordinate, since the
+  // entry was last set; `past`: the groups whose entry went past travelLimit() since
+  // the last call). A vertex stays within kTravelReach of the margin plus its group's
+  // entry from its anchor, so only the listed groups (and the vertices past the groups)
+  // are looked at: one farther than the reach is re-anchored, and the entry restarts
+  // at (the farthest of the others) - reach, at most 0. No pass over all the vertices,
+  // no scan of all the entries. The first call, the first after any other refit, a
+  // build or a renumbering, and a call with over a quarter of the vertices listed make
+  // one pass instead, which brings every vertex within the reach and sets every entry.
+  // Meanwhile queries grow boxes by the whole margin. Every step between two calls must
+  // have been summed into `travel` (else: refitMoved, with an infinite bound when
+  // unknown). Throws for groupSize 0. Returns the vertices re-anchored (all of them for
+  // a refit()).
+  std::size_t refitTravelled(const mesh::SurfaceMesh& m, std::span<double> travel, std::span<const std::uint32_t> past,
+                             std::size_t groupSize);
+  static constexpr double kTravelReach = 0.5;
+  // For the physics that sums the moves: the entry past which a group is listed (the
+  // margin's share beyond the reach; +inf without a margin), and the room to add each
+  // step for the rounding of x + dx.
+  [[nodiscard]] double travelLimit() const {
+    return margin_ > 0.0 ? (1.0 - kTravelReach) * margin_ : std::numeric_limits<double>::infinity();
+  }
+  [[nodiscard]] double travelPad() const { return 4.0 * DBL_EPSILON * padScale_; }
   // After m.garbageCollection() (which returned `c`): renumbers the tree's faces and
   // corners through c.faceMap instead of rebuilding; faces the compaction dropped
   // leave their leaves. Also for a copy of a tree whose mesh was copied and then cut
@@ -238,8 +252,16 @@ class TriangleBvh {
   // re-anchored (or all, by a refit(), when many are); the slack is what the farthest
   // of the others leaves.
   std::size_t motionPass(const mesh::SurfaceMesh& m, double theta);
-  // Anchors the vertices where they are and refits their leaves; returns how many.
+  // Anchors the vertices where they are and refits their leaves; returns how many. Up
+  // to kFewReanchors vertices: leaf by leaf, each climbing only while boxes change.
   std::size_t reanchor(const mesh::SurfaceMesh& m, const std::vector<std::uint32_t>& vertices);
+  static constexpr std::size_t kFewReanchors = 16;
+  // A vertex someone else moved, in refitTravelled's mode: anchored where it is (its
+  // group's entry may be below 0, less than its move).
+  void anchorMoved(const mesh::SurfaceMesh& m, std::uint32_t v);
+  // One leaf refitted, then its ancestors while their boxes change.
+  void fitUpwards(const mesh::SurfaceMesh& m, std::uint32_t leaf);
+  static bool sameBox(const Node& a, const Node& b);
   void fitRound(const mesh::SurfaceMesh& m);
   void fitBlock(const Eigen::Vector3d* P, std::uint32_t block);
   // The box of a block's corners read from P (positions, or the float anchors), grown
@@ -323,7 +345,14 @@ class TriangleBvh {
   std::size_t motionPasses_ = 0;
   std::vector<Eigen::Vector3f> anchor_;
   std::vector<std::uint32_t> stale_, staleWork_;  // re-anchored in a fit: their other leaves follow
-  std::vector<std::uint32_t> fastMoving_;         // refitMovedGroups scratch
+  std::vector<std::uint32_t> moving_;             // refitTravelled scratch
+  std::vector<std::uint32_t> fewLeaves_, fewStale_;  // reanchor scratch
+  // refitTravelled's mode: slack_ is 0 (queries grow by the whole margin), every vertex
+  // is within the reach plus its group's entry of its anchor, and a fit re-anchors a
+  // corner past the reach. Any other refit, a build or a renumbering ends it.
+  bool travelling_ = false;
+  // How far a corner may be from its anchor before a fit re-anchors it.
+  [[nodiscard]] double anchorReach() const { return travelling_ ? kTravelReach * margin_ : margin_ - slack_; }
 };
 
 }  // namespace ld::collision

@@ -141,57 +141,6 @@ LD_AVX512 std::size_t scanAvx512(const double* x, const float* a, std::size_t b,
 }
 #endif
 
-// scanQuietBounds: lanes of bounds compared with the limit (not ≤: NaN counts), the
-// quiet ones' maximum kept in a register; each build stops at its first loud vector
-// and leaves the rest (from there, one at a time) to the portable loop.
-std::size_t boundsPortable(const double* g, std::size_t i, std::size_t n, double limit, double& worst) {
-  for (; i < n; ++i) {
-    if (!(g[i] <= limit)) return i;
-    worst = std::max(worst, g[i]);
-  }
-  return n;
-}
-
-#if defined(__SSE2__)
-std::size_t boundsSse2(const double* g, std::size_t i, std::size_t n, double limit, double& worst) {
-  const __m128d lim = _mm_set1_pd(limit);
-  __m128d w = _mm_set1_pd(worst);
-  for (; i + 2 <= n; i += 2) {
-    const __m128d v = _mm_loadu_pd(g + i);
-    if (_mm_movemask_pd(_mm_cmpnle_pd(v, lim)) != 0) break;
-    w = _mm_max_pd(w, v);
-  }
-  worst = lanesMax(w);
-  return boundsPortable(g, i, n, limit, worst);
-}
-#endif
-
-#ifdef LD_SCAN_X86
-LD_AVX2 std::size_t boundsAvx2(const double* g, std::size_t i, std::size_t n, double limit, double& worst) {
-  const __m256d lim = _mm256_set1_pd(limit);
-  __m256d w = _mm256_set1_pd(worst);
-  for (; i + 4 <= n; i += 4) {
-    const __m256d v = _mm256_loadu_pd(g + i);
-    if (_mm256_movemask_pd(_mm256_cmp_pd(v, lim, _CMP_NLE_UQ)) != 0) break;
-    w = _mm256_max_pd(w, v);
-  }
-  worst = lanesMax(w);
-  return boundsPortable(g, i, n, limit, worst);
-}
-
-LD_AVX512 std::size_t boundsAvx512(const double* g, std::size_t i, std::size_t n, double limit, double& worst) {
-  const __m512d lim = _mm512_set1_pd(limit);
-  __m512d w = _mm512_set1_pd(worst);
-  for (; i + 8 <= n; i += 8) {
-    const __m512d v = _mm512_loadu_pd(g + i);
-    if (_mm512_cmp_pd_mask(v, lim, _CMP_NLE_UQ) != 0) break;
-    w = _mm512_max_pd(w, v);
-  }
-  worst = _mm512_reduce_max_pd(w);
-  return boundsPortable(g, i, n, limit, worst);
-}
-#endif
-
 #ifdef LD_SCAN_X86
 // anchorCoordinates' bulk, 4 and 8 coordinates at a time; returns how many were done.
 LD_AVX2 std::size_t anchorAvx2(const double* x, float* a, std::size_t n) {
@@ -287,23 +236,6 @@ std::size_t scanQuietBlocks(ScanKernel k, const double* x, const float* a, std::
 #endif
     default:
       return scanPortable(x, a, b, nb, theta, worst);
-  }
-}
-
-std::size_t scanQuietBounds(ScanKernel k, const double* g, std::size_t i, std::size_t n, double limit, double& worst) {
-  switch (k) {
-#ifdef LD_SCAN_X86
-    case ScanKernel::Avx512:
-      return boundsAvx512(g, i, n, limit, worst);
-    case ScanKernel::Avx2:
-      return boundsAvx2(g, i, n, limit, worst);
-#endif
-#if defined(__SSE2__)
-    case ScanKernel::Sse2:
-      return boundsSse2(g, i, n, limit, worst);
-#endif
-    default:
-      return boundsPortable(g, i, n, limit, worst);
   }
 }
 

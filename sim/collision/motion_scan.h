@@ -1,7 +1,6 @@
 #pragma once
 // The fat-box pass's scan (TriangleBvh::refitMoved, internal to sim/collision): which
-// vertices moved farther than theta from their anchors (and which groups of vertices
-// may have moved fast, refitMovedGroups). Positions are double, anchors
+// vertices moved farther than theta from their anchors. Positions are double, anchors
 // float (rounded to nearest; the tree widens its boxes by that rounding). Builds chosen
 // at run time: portable scalar code, SSE2 (2 lanes), AVX2 (4) and AVX-512 (8); no
 // -march, so the library runs anywhere. Every build computes each |x - a| the same way
@@ -31,11 +30,6 @@ namespace detail {
 // none). `worst` takes the largest |x - a| of the blocks passed over.
 std::size_t scanQuietBlocks(ScanKernel k, const double* x, const float* a, std::size_t b, std::size_t nb, double theta,
                             double& worst);
-
-// Bounds (TriangleBvh::refitMovedGroups' squared group moves) from i on: the first one
-// not ≤ limit (NaN included), or n if none. `worst` takes the largest of those passed
-// over.
-std::size_t scanQuietBounds(ScanKernel k, const double* g, std::size_t i, std::size_t n, double limit, double& worst);
 
 // a[i] = float(x[i]) (to nearest, as a static_cast) for i < n, with build k.
 void anchorCoordinates(ScanKernel k, const double* x, float* a, std::size_t n);

@@ -3027,8 +3027,8 @@ struct CutEngine::Impl {
     if (b.sync(m) != collision::SyncResult::Rebuilt) {
       if (moved[i] && b.motionMargin() > 0.0) {
         const std::size_t passes = b.motionPasses();
-        stats.verticesReanchored += static_cast<long>(
-            groupMoves.empty() ? b.refitMoved(m, moveBound[i]) : b.refitMovedGroups(m, groupMoves, groupSize));
+        stats.verticesReanchored += static_cast<long>(travelling ? b.refitTravelled(m, travel, travelPast, groupSize)
+                                                                 : b.refitMoved(m, moveBound[i]));
         stats.marginPasses += static_cast<long>(b.motionPasses() - passes);
         ++stats.marginRefits;
       } else if (moved[i]) {
@@ -3053,8 +3053,10 @@ struct CutEngine::Impl {
     moveBound[i] = 0.0;
     movedList[i].clear();
   }
-  // verticesMovedWithin's per-group bounds, for the syncBvh it calls (empty otherwise).
-  std::span<const double> groupMoves;
+  // verticesTravelled's groups, for the syncBvh it calls.
+  bool travelling = false;
+  std::span<double> travel;
+  std::span<const std::uint32_t> travelPast;
   std::size_t groupSize = 0;
   std::vector<std::pair<int, Vertex>> slidPending;  // (object id, vertex) moved by slideBottom
   std::vector<Vertex> slidScratch;
@@ -3811,30 +3813,48 @@ void CutEngine::verticesMovedWithin(int id, double maxMove) {
   ++impl_->motionCount;  // the tracks re-anchor to the tissue, as for object()
 }
 
-void CutEngine::verticesMovedWithin(int id, double maxMove, std::span<const double> groupMoves2,
-                                    std::size_t groupSize) {
-  if (groupSize == 0) throw CutError("verticesMovedWithin: groupSize must be > 0");
+void CutEngine::verticesTravelled(int id, double maxMove, std::span<double> travel, std::span<const std::uint32_t> past,
+                                  std::size_t groupSize) {
+  if (groupSize == 0) throw CutError("verticesTravelled: groupSize must be > 0");
   const int i = impl_->indexOf(id);
   if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
   Impl& I = *impl_;
   const auto k = static_cast<std::size_t>(i);
-  // Moves of earlier steps not yet taken (several steps between samples): their bounds
-  // add up as one number.
-  if (groupMoves2.empty() || I.moved[k] || !(maxMove >= 0.0) || I.bvhs[k].motionMargin() <= 0.0) {
+  // A step that was not summed, or earlier moves not yet taken (their bound is one
+  // number): the tree checks them its own way (and leaves the travelled mode).
+  if (!std::isfinite(maxMove) || !(maxMove >= 0.0) || I.moved[k] || I.bvhs[k].motionMargin() <= 0.0) {
     verticesMovedWithin(id, maxMove);
     return;
   }
   I.moved[k] = 1;
   I.moveBound[k] = maxMove;
-  ++I.motionCount;
+  ++I.motionCount;  // the tracks re-anchor to the tissue, as for object()
   IntervalTimer timer{I.stats.collisionSeconds};
-  I.groupMoves = groupMoves2;
+  I.travelling = true;
+  I.travel = travel;
+  I.travelPast = past;
   I.groupSize = groupSize;
-  struct Clear {
+  struct Clear {  // the spans do not outlive the call, even if the sync throws
     Impl& I;
-    ~Clear() { I.groupMoves = {}; }
+    ~Clear() {
+      I.travelling = false;
+      I.travel = {};
+      I.travelPast = {};
+    }
   } clear{I};
   I.syncBvh(k);
+}
+
+double CutEngine::travelLimit(int id) const {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  return impl_->bvhs[static_cast<std::size_t>(i)].travelLimit();
+}
+
+double CutEngine::travelPad(int id) const {
+  const int i = impl_->indexOf(id);
+  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  return impl_->bvhs[static_cast<std::size_t>(i)].travelPad();
 }
 
 StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {

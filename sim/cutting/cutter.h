@@ -185,11 +185,18 @@ class CutEngine {
   // physics::Dynamics::maxMove): with a collisionMargin the tree is not even read
   // while the moves add up to less than the slack its boxes have left.
   void verticesMovedWithin(int id, double maxMove);
-  // As above, with a bound per group of `groupSize` consecutive vertices, squared
-  // (physics::Dynamics::groupMoves2(), kMoveGroup): the collision tree takes it at once
-  // (TriangleBvh::refitMovedGroups; the time counts as collision time), so the span
-  // need not outlive the call. Empty: as above. Throws CutError for groupSize 0.
-  void verticesMovedWithin(int id, double maxMove, std::span<const double> groupMoves2, std::size_t groupSize);
+  // As above, for physics that sums each vertex group's moves (physics::Params::
+  // travelLimit = travelLimit(id) and travelPad = travelPad(id); then pass
+  // Dynamics::maxMove, groupTravel(), groupsPastLimit() and kMoveGroup, and clear the
+  // list): the collision tree looks only at the listed groups and lowers their entries
+  // (TriangleBvh::refitTravelled), at once (collision time), so the spans need not
+  // outlive the call. Every step since the last call must have been summed; a maxMove
+  // that is not finite says this one was not: as verticesMovedWithin(id, maxMove).
+  // Throws CutError for groupSize 0 or an unknown id.
+  void verticesTravelled(int id, double maxMove, std::span<double> travel, std::span<const std::uint32_t> past,
+                         std::size_t groupSize);
+  [[nodiscard]] double travelLimit(int id) const;
+  [[nodiscard]] double travelPad(int id) const;
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

@@ -549,6 +549,12 @@ bool ensureCache(Dynamics& s, const mesh::SurfaceMesh& m) {
   const bool journalGrew = c.journalE <= m.editedEdges().size() && c.journalF <= m.editedFaces().size() &&
                            c.journalV <= m.editedVertices().size() && c.nVertexSlots <= m.verticesSize();
   if (!(sameLayout && journalGrew && updateCache(c, m))) rebuildCache(c, m);
+  if (c.travelLayout != m.layoutVersion()) {  // renumbered: no group's travel is known any more
+    if (!c.groupTravel.empty())
+      c.groupTravel.assign((c.nVertexSlots + detail::kGroup - 1) / detail::kGroup,
+                           std::numeric_limits<double>::infinity());
+    c.travelLayout = m.layoutVersion();
+  }
   noteJournal(c, m);
   s.energyBudget = std::numeric_limits<double>::quiet_NaN();  // cuts change the energy
   return true;
@@ -816,10 +822,12 @@ struct SymplecticArgs {
   bool energy;  // the monitor's sums (see symplecticEuler)
   bool rsqrt;   // detail::Factor::Rsqrt (both threads take the same)
   double* groupMove2 = nullptr;  // with energy: each group's move bound, squared (BlockStep)
+  double* travel = nullptr;      // with groupMove2: summed (BlockStep::travel)
+  double travelLimit = 0, travelPad = 0;
 };
 
 // Vertex groups [g0, g1) of the symplectic step: springs, integration, sums.
-SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t g1) {
+SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t g1, std::vector<std::uint32_t>* past) {
   const View& w = *a.w;
   const Cache& c = *a.c;
   detail::BlockStep bs;
@@ -854,6 +862,10 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.g[1] = w.g.y();
   bs.g[2] = w.g.z();
   bs.groupMove2 = a.groupMove2;
+  bs.travel = a.travel;
+  bs.travelLimit = a.travelLimit;
+  bs.travelPad = a.travelPad;
+  bs.past = past;
   // As maxMove's bound (advance), squared.
   bs.moveScale2 = a.dt * a.dt * (1.0 + 4e-12);
   detail::FinishSums acc;
@@ -880,10 +892,11 @@ struct SymplecticJob {
   std::size_t groups = 0, chunks = 0;
   std::atomic<std::size_t> next{0};
   std::array<SweepSums, kChunks> sums{};
+  std::vector<std::uint32_t>* past = nullptr;  // kChunks lists (travel summed)
   std::size_t bound(std::size_t k) const { return k * groups / chunks; }
   void work() {
     for (std::size_t k; (k = next.fetch_add(1, std::memory_order_relaxed)) < chunks;)
-      sums[k] = symplecticGroups(*args, bound(k), bound(k + 1));
+      sums[k] = symplecticGroups(*args, bound(k), bound(k + 1), past ? &past[k] : nullptr);
   }
   static void run(void* p) { static_cast<SymplecticJob*>(p)->work(); }
 };
@@ -898,7 +911,8 @@ struct SymplecticJob {
 // energy): each vertex group's move bound into c.groupMove2 (Dynamics::groupMoves2),
 // else that is left empty.
 SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v0, Vec3* x1, Vec3* v1, double dt,
-                          int threads, bool energy = true, bool groupMoves = false) {
+                          int threads, bool energy = true, bool groupMoves = false,
+                          double travelLimit = std::numeric_limits<double>::infinity(), double travelPad = 0.0) {
   double* f4 = forceSlots(c.f4);
   if (!c.forceZero) std::fill(c.f4.begin(), c.f4.end(), 0.0);
   c.forceZero = false;
@@ -909,6 +923,8 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
     c.groupMove2.resize(ng);
   else
     c.groupMove2.clear();
+  const bool travel = groupMoves && std::isfinite(travelLimit);
+  if (travel) c.groupTravel.resize(ng, 0.0);  // (new groups hold new vertices: nothing moved them yet)
   const SymplecticArgs args{&w,
                             &c,
                             x0,
@@ -920,21 +936,33 @@ SweepSums symplecticEuler(const View& w, Cache& c, const Vec3* x0, const Vec3* v
                             kern,
                             energy,
                             detail::activeFactor(kern) == detail::Factor::Rsqrt,
-                            groupMoves ? c.groupMove2.data() : nullptr};
+                            groupMoves ? c.groupMove2.data() : nullptr,
+                            travel ? c.groupTravel.data() : nullptr,
+                            travelLimit,
+                            travelPad};
   const double added = addedSprings(w, raw(x0), f4);
   SweepSums sums;
   if (threads < 2 || w.n < 2048) {
-    sums = symplecticGroups(args, 0, ng);
+    sums = symplecticGroups(args, 0, ng, travel ? &c.groupsPast : nullptr);
   } else {
     detail::Worker& worker = c.worker.get();
     SymplecticJob job;
     job.args = &args;
     job.groups = ng;
     job.chunks = std::min(kChunks, ng);
+    if (travel) {
+      c.pastChunks.resize(kChunks);
+      job.past = c.pastChunks.data();
+    }
     worker.start(&SymplecticJob::run, &job);
     job.work();
     if (!worker.takeBack()) worker.wait();
     for (std::size_t k = 0; k < job.chunks; ++k) sums.add(job.sums[k]);
+    if (travel)  // in group order
+      for (std::size_t k = 0; k < job.chunks; ++k) {
+        c.groupsPast.insert(c.groupsPast.end(), c.pastChunks[k].begin(), c.pastChunks[k].end());
+        c.pastChunks[k].clear();
+      }
   }
   if (energy && c.laneLayout == detail::LaneLayout::SharedK) {
     // The lanes summed k·l² − 2K·l; the constant part K·rest of each lane, here. The
@@ -1182,7 +1210,8 @@ struct Outcome {
 Outcome advance(Method m, const Params& p, const StabilityOptions& o, const View& w, Cache& c, const Vec3* x0,
                 const Vec3* v0, Vec3* x1, Vec3* v1, double dt, double budget) {
   if (m == Method::SymplecticEuler) {
-    SweepSums s = symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled, p.groupMoves);
+    SweepSums s =
+        symplecticEuler(w, c, x0, v0, x1, v1, dt, p.threads, o.enabled, p.groupMoves, p.travelLimit, p.travelPad);
     if (o.enabled && !std::isfinite(budget)) startEnergy(w, x0, v0, s);
     // x1 = x0 + dt v1 per coordinate, and maxComp2 is the largest squared component of
     // v1 (taken with the monitor's sums): the step's largest move, with room for roundings.

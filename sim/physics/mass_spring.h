@@ -94,9 +94,16 @@ struct Params {
   int cgMaxIterations = 200;
   int xpbdIterations = 4;  // Gauss–Seidel sweeps per xpbd step
   // The symplectic step also writes each vertex group's move bound
-  // (Dynamics::groupMoves2, for a collision tree with fat boxes; ~1 % of the step's
-  // instructions, so only for a caller that reads it).
+  // (Dynamics::groupMoves2; ~1 % of the step's instructions, so only for a caller that
+  // reads it).
   bool groupMoves = false;
+  // With groupMoves and a finite travelLimit, each group's bound is also summed, plus
+  // travelPad a step (the consumer's room for the rounding of x + dx), into
+  // Dynamics::groupTravel(), and a group whose sum passes travelLimit is listed
+  // (Dynamics::groupsPastLimit()): a collision tree then looks only at those, with no
+  // pass over all the vertices (TriangleBvh::refitTravelled).
+  double travelLimit = std::numeric_limits<double>::infinity();
+  double travelPad = 0.0;
 };
 
 // What the stability monitor recorded.
@@ -214,6 +221,10 @@ struct Cache {
   // end); zero between steps.
   std::vector<double> f4, scatter4;
   std::vector<double> groupMove2;  // the symplectic step's bound per vertex group (Dynamics::groupMoves2)
+  std::vector<double> groupTravel;                                         // the bounds summed (Dynamics::groupTravel)
+  std::uint64_t travelLayout = std::numeric_limits<std::uint64_t>::max();  // the mesh layout it is for
+  std::vector<std::uint32_t> groupsPast;                                   // Dynamics::groupsPastLimit
+  std::vector<std::vector<std::uint32_t>> pastChunks;  // step scratch: groupsPast per chunk of the step
   std::vector<double> lambda;  // xpbd multipliers (springs)
   std::uint64_t rebuilds = 0;
   std::uint64_t localUpdates = 0;
@@ -259,16 +270,29 @@ struct Dynamics {
   // method other than symplectic Euler, the monitor off, substeps, a fallback, the
   // active-region step, rawStep).
   double maxMove = std::numeric_limits<double>::infinity();
-  // After step() with Params::groupMoves, when maxMove is finite: per group of kMoveGroup consecutive vertices
-  // (vertex v in group v / kMoveGroup), the square of a bound on how far any of them
-  // moved in it, per coordinate [mm²], as maxMove up to the rounding of x + dx
-  // (TriangleBvh::refitMovedGroups: the few fast vertices apart from the bulk). Empty
-  // without Params::groupMoves or when maxMove is not finite.
+  // After step() with Params::groupMoves, when maxMove is finite: per group of
+  // kMoveGroup consecutive vertices (vertex v in group v / kMoveGroup), the square of a
+  // bound on how far any of them moved in it, per coordinate [mm²], as maxMove up to
+  // the rounding of x + dx (what groupTravel sums). Empty without Params::groupMoves or
+  // when maxMove is not finite.
   static constexpr std::size_t kMoveGroup = 16;
   [[nodiscard]] std::span<const double> groupMoves2() const {
     if (!std::isfinite(maxMove)) return {};
     return cache.groupMove2;
   }
+
+  // With Params::groupMoves and a finite Params::travelLimit: per group (as above), a
+  // bound on how far (per coordinate) any of its vertices moved since the consumer last
+  // lowered the entry: the steps' bounds summed (a rejected attempt's too), plus
+  // Params::travelPad a step. Entries of new groups start at 0; after the vertices were
+  // renumbered (a new layoutVersion()) every entry is +inf. Holds the moves of the steps
+  // whose maxMove was finite; a step that moved vertices otherwise (maxMove +inf) is not
+  // in it, so a consumer must then check the vertices another way.
+  [[nodiscard]] std::span<double> groupTravel() { return cache.groupTravel; }
+  // The groups whose travel went past Params::travelLimit (or is not a number) in a
+  // step since clearGroupsPastLimit(), in order, possibly repeated.
+  [[nodiscard]] std::span<const std::uint32_t> groupsPastLimit() const { return cache.groupsPast; }
+  void clearGroupsPastLimit() { cache.groupsPast.clear(); }
 
   // Call after changing masses, rest lengths or stiffnesses without a topology edit.
   void invalidate() {

@@ -24,6 +24,20 @@ namespace ld::physics::detail {
 
 namespace {
 
+// A group's squared move bound, and (when summed) its travel and the list of the groups
+// past the limit (`!(t <= limit)`: a NaN is listed). Rounding of the sum is covered by
+// the caller's travelPad, many ulps of the coordinates.
+[[gnu::noinline, gnu::cold]] void listGroup(const BlockStep& c, std::size_t grp) {
+  c.past->push_back(static_cast<std::uint32_t>(grp));
+}
+inline void recordGroupMove(const BlockStep& c, std::size_t grp, double bound2) {
+  c.groupMove2[grp] = bound2;
+  if (c.travel == nullptr) return;
+  const double t = c.travel[grp] + (std::sqrt(bound2) + c.travelPad);
+  c.travel[grp] = t;
+  if (!(t <= c.travelLimit)) listGroup(c, grp);  // (out of line: a few groups a step)
+}
+
 // Large meshes: the vertex arrays of the group kAhead groups ahead are prefetched
 // (six read streams besides the ranks' three; software prefetch measured 15-20 %
 // faster at 100k triangles under load, 4-10 % slower where the data sits in L2/L3,
@@ -164,7 +178,7 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
       }
     }
     if (groupMoves) {
-      c.groupMove2[grp] = s.maxc * c.moveScale2;
+      recordGroupMove(c, grp, s.maxc * c.moveScale2);
       s.maxc = std::max(before, s.maxc);
     }
   }
@@ -431,7 +445,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
       std::copy(buf[5], buf[5] + 3 * rem4, c.v1 + b);
     }
     if (groupMoves) {
-      c.groupMove2[grp] = hmax(acc.maxc) * c.moveScale2;
+      recordGroupMove(c, grp, hmax(acc.maxc) * c.moveScale2);
       acc.maxc = _mm256_max_pd(acc.maxc, before);
     }
   }
@@ -762,7 +776,7 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       finish8<Energy>(c, k, t + kLanes * h, std::min(kLanes, rem - kLanes * h), extra, X + 3 * h, mk + 3 * h, fv, acc);
     }
     if (groupMoves) {
-      c.groupMove2[grp] = _mm512_reduce_max_pd(acc.maxc) * c.moveScale2;
+      recordGroupMove(c, grp, _mm512_reduce_max_pd(acc.maxc) * c.moveScale2);
       acc.maxc = _mm512_max_pd(acc.maxc, before);
     }
   }

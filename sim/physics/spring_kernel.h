@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 namespace ld::physics::detail {
 
@@ -131,6 +132,11 @@ struct BlockStep {
   // moves per coordinate), at groupMove2[grp]. Null: not taken.
   double* groupMove2 = nullptr;
   double moveScale2 = 0;
+  // With groupMove2: each bound's square root plus travelPad is added to travel[grp];
+  // a group whose sum is then not <= travelLimit goes onto *past. Null: not summed.
+  double* travel = nullptr;
+  double travelLimit = 0, travelPad = 0;
+  std::vector<std::uint32_t>* past = nullptr;
 };
 // Raw sums for the stability monitor (accumulated): Σ m|v1|², Σ_live |x1 − home|²,
 // Σ |v1|², Σ (ext + m·g)·(x1 − x0), the largest squared velocity component (3 × it

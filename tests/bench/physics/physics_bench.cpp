@@ -9,6 +9,7 @@
 // in place on the engine's mesh); the cost of a topology edit to the physics.
 //   physics_bench                                     (all, about a minute)
 //   physics_bench --benchmark_filter='Symplectic'     (the targets)
+//   physics_bench --benchmark_filter='MonitoredGroups' (the collision tree's inputs)
 // xpbd (a sixth method, by name only) at all sizes too.
 // 1M triangles: not for implicit Euler (assembling and solving the sparse system takes
 // seconds per step there) nor RK4 (four force passes; the 100k figure scales).
@@ -54,7 +55,10 @@ void perSpring(benchmark::State& bs, const Dynamics& d, const mesh::SurfaceMesh&
       benchmark::Counter(springs * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
-void runSteps(benchmark::State& bs, Method m, bool monitor, int threads) {
+// groups: 1 also the per-group move bounds (Params::groupMoves), 2 also their sums
+// against a limit (Params::travelLimit, as `cut --physics on` steps for its collision
+// tree; the listed groups are cleared each step as the tree would take them).
+void runSteps(benchmark::State& bs, Method m, bool monitor, int threads, int groups = 0) {
   FlushDenormals ftz;
   const int tris = static_cast<int>(bs.range(0));
   State s = baseState(tris);
@@ -62,12 +66,18 @@ void runSteps(benchmark::State& bs, Method m, bool monitor, int threads) {
   p.method = m;
   p.stability.enabled = monitor;
   p.threads = threads;
+  p.groupMoves = groups > 0;
+  if (groups > 1) {
+    p.travelLimit = 0.125;
+    p.travelPad = 1e-13;
+  }
   step(p, s, kDt);  // builds the cache
   for (auto _ : bs) {
     if (monitor)
       step(p, s, kDt);
     else
       rawStep(p, s, m, kDt);
+    s.clearGroupsPastLimit();
     benchmark::ClobberMemory();
   }
   perSpring(bs, s, s.mesh);
@@ -78,6 +88,11 @@ void BM_Symplectic(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler,
 void BM_Symplectic2Threads(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, false, 2); }
 void BM_SymplecticMonitored(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, true, 1); }
 void BM_SymplecticMonitored2Threads(benchmark::State& bs) { runSteps(bs, Method::SymplecticEuler, true, 2); }
+// The monitored step as `cut --physics on` takes it (range(1): 0 plain, 1 with the
+// group bounds, 2 with their sums for the collision tree): what the tree's inputs cost.
+void BM_SymplecticMonitoredGroups(benchmark::State& bs) {
+  runSteps(bs, Method::SymplecticEuler, true, 1, static_cast<int>(bs.range(1)));
+}
 void BM_Verlet(benchmark::State& bs) { runSteps(bs, Method::Verlet, false, 1); }
 void BM_Rk4(benchmark::State& bs) { runSteps(bs, Method::Rk4, false, 1); }
 void BM_ImplicitEuler(benchmark::State& bs) { runSteps(bs, Method::ImplicitEuler, false, 1); }
@@ -125,6 +140,11 @@ BENCHMARK(BM_Symplectic2Threads) LD_SIZES->UseRealTime();
 BENCHMARK(BM_SymplecticMonitored) LD_SIZES;
 BENCHMARK(BM_SymplecticPerSpringLanes) LD_SIZES;
 BENCHMARK(BM_SymplecticMonitored2Threads) LD_SIZES->UseRealTime();
+BENCHMARK(BM_SymplecticMonitoredGroups)
+    ->ArgsProduct({{10000, 100000}, {0, 1, 2}})
+    ->ArgNames({"triangles", "groups"})
+    ->Unit(benchmark::kMicrosecond)
+    ->MinTime(0.2);
 BENCHMARK(BM_SymplecticSqrtDiv) LD_SIZES;
 BENCHMARK(BM_SymplecticKernel)
     ->ArgsProduct({{10000, 100000}, {0, 1, 2}, {1, 2}, {0, 1}})

@@ -228,44 +228,71 @@ TEST(TriangleBvh, FatBoxesWithAMoveBoundSkipPassesAndStayExact) {
   EXPECT_GT(passes, 0);
 }
 
-// With a bound per group of vertices (physics::Dynamics::groupMoves2) the few fast
-// vertices are looked at one by one and the bulk's small bound alone spends the slack:
-// far fewer passes than with the step's largest move, and every box still holds its
-// corners (check) and every query is exact, also with faces split between steps
-// (vertices past the groups), a group whose bound is not a number, and a tissue-wide
-// jump (more fast groups than the tree looks at one by one).
-TEST(TriangleBvh, FatBoxesWithGroupBoundsLookOnlyAtTheFastGroups) {
-  constexpr std::size_t G = 16;
+// What the physics does for refitTravelled (physics::Dynamics::groupTravel): each
+// group's largest move per coordinate summed, plus the step's rounding room, and the
+// groups past the limit listed until the tree has taken them. Groups cover the
+// vertices there are at each step (new ones start at 0), unless told to lag.
+struct TravelSums {
+  static constexpr std::size_t G = 16;
+  std::vector<double> travel;
+  std::vector<std::uint32_t> past;
+  void add(const std::vector<Vector3d>& before, const SurfaceMesh& m, const TriangleBvh& bvh, bool lag = false) {
+    const std::size_t n = lag ? before.size() : m.verticesSize();
+    travel.resize((n + G - 1) / G, 0.0);
+    std::vector<double> step(travel.size(), 0.0);
+    for (std::size_t v = 0; v < std::min(n, before.size()); ++v)
+      step[v / G] = std::max(step[v / G], (m.positions()[v] - before[v]).cwiseAbs().maxCoeff());
+    for (std::size_t g = 0; g < travel.size(); ++g) {
+      travel[g] += step[g] + bvh.travelPad();
+      if (!(travel[g] <= bvh.travelLimit())) past.push_back(static_cast<std::uint32_t>(g));
+    }
+  }
+  std::size_t take(const SurfaceMesh& m, TriangleBvh& bvh) {
+    const std::size_t n = bvh.refitTravelled(m, travel, past, G);
+    past.clear();
+    return n;
+  }
+};
+
+// With each group's moves summed (refitTravelled) only the groups past the limit are
+// looked at: no pass over all the vertices after the first, far fewer vertices read
+// than with the step's largest move, and every box still holds its corners (check) and
+// every query is exact: also with faces split between steps (vertices past the groups
+// for a step, then in new groups), a group whose sum is not a number, a slow group
+// swinging back and forth (entries below 0), a tissue-wide jump (over a quarter of the
+// groups listed: one pass) and a return from refitMoved.
+TEST(TriangleBvh, TravelledBoxesLookOnlyAtTheListedGroups) {
   std::mt19937_64 rng(31);
   SegmentSource src(32);
   std::uniform_real_distribution<double> U(-1.0, 1.0), S(0.05, 0.95);
   SurfaceMesh m = testing::slab(16, 1.0, 2.0);
-  TriangleBvh byGroup(m), byMax(m);
+  TriangleBvh byTravel(m), byMax(m);
   const double margin = 0.1;
-  byGroup.setMotionMargin(m, margin);
+  byTravel.setMotionMargin(m, margin);
   byMax.setMotionMargin(m, margin);
-  EXPECT_THROW(byGroup.refitMovedGroups(m, {}, 0), CollisionError);
-  const double slow = 0.2 * TriangleBvh::kFastShare * margin;
-  // Two lips: a run of vertices that keeps moving fast in one direction.
+  EXPECT_NEAR(byTravel.travelLimit(), (1.0 - TriangleBvh::kTravelReach) * margin, 1e-15);
+  TravelSums sums;
+  EXPECT_THROW(byTravel.refitTravelled(m, sums.travel, sums.past, 0), CollisionError);
+  const double slow = 0.002 * margin;
+  // Two lips: runs of vertices that keep moving fast in one direction.
   std::vector<std::uint32_t> fast;
   for (std::uint32_t v = 40; v < 46; ++v) fast.push_back(v);
   for (std::uint32_t v = 300; v < 304; ++v) fast.push_back(v);
-  std::size_t reanchored = 0;
+  std::size_t reanchored = 0, listed = 0;
   const int steps = testing::scaled(300);
   for (int step = 0; step < steps; ++step) {
     const std::vector<Vector3d> before = m.positions();
     const bool jump = step == steps / 2;
-    for (Vector3d& p : m.positions()) p += (jump ? 10.0 : 1.0) * slow * Vector3d(U(rng), U(rng), U(rng));
+    for (Vector3d& p : m.positions()) p += (jump ? 100.0 : 1.0) * slow * Vector3d(U(rng), U(rng), U(rng));
     for (std::uint32_t v : fast) m.positions()[v] += Vector3d(0.03, -0.02, 0.01 * U(rng));
-    std::vector<double> g2((before.size() + G - 1) / G, 0.0);
+    // A group swinging by 0.9 of the limit and back: listed every other step, looked
+    // at, and (its vertices near their anchors) given an entry below 0.
+    for (std::uint32_t v = 160; v < 176; ++v) m.positions()[v].y() += (step % 2 ? -0.9 : 0.9) * byTravel.travelLimit();
     double largest = 0.0;
-    for (std::size_t v = 0; v < before.size(); ++v) {
-      const double d = (m.positions()[v] - before[v]).cwiseAbs().maxCoeff();
-      g2[v / G] = std::max(g2[v / G], d * d);
-      largest = std::max(largest, d);
-    }
-    if (step == 77) g2[3] = std::numeric_limits<double>::quiet_NaN();
-    if (step % 9 == 4) {  // the cutter splits a face: its new vertex is past the groups
+    for (std::size_t v = 0; v < before.size(); ++v)
+      largest = std::max(largest, (m.positions()[v] - before[v]).cwiseAbs().maxCoeff());
+    const bool split = step % 9 == 4;
+    if (split) {  // the cutter splits a face: its new vertex is past the groups this step
       const Face f(static_cast<std::uint32_t>(rng() % m.facesSize()));
       double u = S(rng), v = S(rng);
       if (u + v > 1) u = 1 - u, v = 1 - v;
@@ -273,22 +300,100 @@ TEST(TriangleBvh, FatBoxesWithGroupBoundsLookOnlyAtTheFastGroups) {
       const mesh::Vertex nv = m.splitFace(f, m.position(vs[0]) + u * (m.position(vs[1]) - m.position(vs[0])) +
                                                  v * (m.position(vs[2]) - m.position(vs[0])));
       ASSERT_TRUE(nv.isValid());
-      fast.push_back(nv.idx());  // and it moves fast from now on
-      byGroup.sync(m);
+      fast.push_back(nv.idx());  // and it moves fast from the next step on
+      byTravel.sync(m);
       byMax.sync(m);
     }
-    reanchored += byGroup.refitMovedGroups(m, g2, G);
+    sums.add(before, m, byTravel, split);
+    if (step == 77) sums.travel[3] = std::numeric_limits<double>::quiet_NaN(), sums.past.push_back(3);
+    listed += sums.past.size();
+    if (step == 200) {  // someone else's refit in between: the mode is left and taken up again
+      byTravel.refitMoved(m, largest);
+      sums.past.clear();
+    } else {
+      reanchored += sums.take(m, byTravel);
+    }
     byMax.refitMoved(m, largest);
-    ASSERT_EQ(byGroup.check(m), "") << "step " << step;
+    ASSERT_EQ(byTravel.check(m), "") << "step " << step;
     ASSERT_EQ(byMax.check(m), "") << "step " << step;
-    if (step % 5 == 0) expectBvhMatchesBruteForce(m, byGroup, src, 10);
+    if (step % 5 == 0) expectBvhMatchesBruteForce(m, byTravel, src, 10);
     if (::testing::Test::HasFatalFailure()) return;
   }
-  // The fast vertices leave their reach every few steps; with the largest move as the
-  // bound each time means a pass over everything, with the groups only theirs.
+  // The lips leave their reach every few steps; with the largest move as the bound each
+  // time means a pass over everything, with the sums only the listed groups.
   EXPECT_GT(byMax.motionPasses(), static_cast<std::size_t>(steps) / 5);
-  EXPECT_LT(byGroup.motionPasses(), byMax.motionPasses() / 4);
-  EXPECT_GT(reanchored, 10u * static_cast<std::size_t>(steps) / 8) << "the fast ones were re-anchored";
+  EXPECT_LE(byTravel.motionPasses(), 4u) << "the first call, the jump, the return after refitMoved";
+  EXPECT_GT(reanchored, 10u * static_cast<std::size_t>(steps) / 8) << "the lips were re-anchored";
+  EXPECT_LT(listed * TravelSums::G, 30u * static_cast<std::size_t>(steps)) << "only a few groups a step";
+  EXPECT_GT(listed, static_cast<std::size_t>(steps) / 2) << "the swinging group is listed";
+}
+
+// A slab with fat boxes in refitTravelled's mode, group 2 (vertices 32-47) looked at
+// while still: its entry is -reach, the lowest there is.
+struct QuietGroup2 {
+  SurfaceMesh m = testing::slab(16, 1.0, 2.0);
+  TriangleBvh bvh{m};
+  double margin = 0.1, reach = TriangleBvh::kTravelReach * margin;
+  TravelSums sums;
+  std::vector<Vector3d> before;
+  QuietGroup2() {
+    bvh.setMotionMargin(m, margin);
+    before = m.positions();
+    sums.add(before, m, bvh);
+    sums.take(m, bvh);
+    sums.past.push_back(2);
+    sums.take(m, bvh);
+  }
+  // A step that moves group 2 by d along x.
+  void moveGroup2(double d) {
+    before = m.positions();
+    for (std::uint32_t v = 2 * TravelSums::G; v < 3 * TravelSums::G; ++v) m.positions()[v].x() += d;
+  }
+};
+
+// A vertex someone else moves while a group's entry is below 0 (the cutter's groove
+// bottom slides) must be anchored anew: its group's entry no longer bounds it. Here
+// one vertex of the quiet group is slid by 0.9 reach (within the reach: a fit alone
+// would keep its anchor), then the group moves just under what its entry allows; the
+// box must still hold it.
+TEST(TriangleBvh, TravelledBoxesTakeVerticesMovedBySomeoneElse) {
+  QuietGroup2 q;
+  EXPECT_NEAR(q.sums.travel[2], -q.reach, 1e-12);
+  const mesh::Vertex x(2 * TravelSums::G + 5);
+  q.m.position(x).x() += 0.9 * q.reach;
+  const std::vector<mesh::Vertex> moved = {x};
+  q.bvh.refitVertices(q.m, moved);
+  ASSERT_EQ(q.bvh.check(q.m), "");
+  q.moveGroup2(0.99 * (q.bvh.travelLimit() + q.reach));
+  q.sums.add(q.before, q.m, q.bvh);
+  EXPECT_TRUE(q.sums.past.empty()) << "the entry allows the move";
+  q.sums.take(q.m, q.bvh);
+  EXPECT_EQ(q.bvh.check(q.m), "") << "the slid vertex left its box";
+  SegmentSource src(33);
+  expectBvhMatchesBruteForce(q.m, q.bvh, src, 20);
+}
+
+// Entries kept from an earlier stay in the mode (below 0) must not outlive another
+// refit: refitMoved leaves group 2's vertices 0.9 reach from their anchors (within its
+// own slack), so coming back the entries must start from there, and a move the old
+// entry would have allowed gets the group listed and looked at.
+TEST(TriangleBvh, TravelledEntriesRestartAfterAnotherRefit) {
+  QuietGroup2 q;
+  auto& [m, bvh, margin, reach, sums, before] = q;
+  q.moveGroup2(0.9 * reach);  // a step the physics could not sum
+  bvh.refitMoved(m, 0.9 * reach);
+  ASSERT_EQ(bvh.check(m), "");
+  q.moveGroup2(0.0);  // a summed step: back in the mode
+  sums.add(before, m, bvh);
+  EXPECT_EQ(sums.take(m, bvh), 0u) << "all within the reach";
+  EXPECT_EQ(bvh.motionPasses(), 3u) << "a pass on entry, refitMoved's, one coming back";
+  EXPECT_NEAR(sums.travel[2], 0.9 * reach - reach, 1e-9) << "every entry from the farthest vertex";
+  q.moveGroup2(0.99 * (bvh.travelLimit() + reach));
+  sums.add(before, m, bvh);
+  sums.take(m, bvh);
+  EXPECT_EQ(bvh.check(m), "") << "group 2's old entry was taken for true";
+  SegmentSource src(34);
+  expectBvhMatchesBruteForce(m, bvh, src, 20);
 }
 
 // The fat-box pass's scan in every build this CPU runs (portable, SSE2, AVX2, AVX-512):
@@ -344,37 +449,6 @@ TEST(TriangleBvh, ScanKernelsFindEveryLoudCoordinate) {
         }
       }
     }
-}
-
-// The group bounds' scan in every build against a reference: a bound past the limit,
-// NaN or infinite at any place (vector bodies and tails, every start) stops it there,
-// one exactly at the limit does not, and the largest bound passed over is the same to
-// the bit.
-TEST(TriangleBvh, ScanKernelsFindEveryLoudGroupBound) {
-  constexpr std::size_t n = 29;
-  const double limit = 0.0625;
-  std::mt19937_64 rng(23);
-  std::uniform_real_distribution<double> B(0.0, limit);
-  std::vector<double> g0(n);
-  for (double& b : g0) b = B(rng);
-  const double bad[] = {limit * (1 + 1e-15), std::numeric_limits<double>::quiet_NaN(),
-                        std::numeric_limits<double>::infinity(), limit};
-  for (std::size_t p = 0; p < n; ++p)
-    for (std::size_t kind = 0; kind < std::size(bad); ++kind)
-      for (std::size_t from = 0; from < 10; ++from) {
-        std::vector<double> g = g0;
-        g[p] = bad[kind];
-        const bool loud = kind + 1 < std::size(bad);
-        const std::size_t want = loud && p >= from ? p : n;
-        double wantWorst = 0.01;
-        for (std::size_t i = from; i < want; ++i) wantWorst = std::max(wantWorst, g[i]);
-        for (ScanKernel k : scanKernels()) {
-          double worst = 0.01;
-          ASSERT_EQ(detail::scanQuietBounds(k, g.data(), from, n, limit, worst), want)
-              << scanKernelName(k) << " bound " << p << " kind " << kind << " from " << from;
-          ASSERT_EQ(worst, wantWorst) << scanKernelName(k) << " bound " << p << " kind " << kind << " from " << from;
-        }
-      }
 }
 
 // Anchoring: each coordinate rounded to the nearest float, in every build and for

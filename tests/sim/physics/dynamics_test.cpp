@@ -193,5 +193,75 @@ TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
   EXPECT_TRUE(s.groupMoves2().empty()) << "the monitor's sums are off";
 }
 
+// Dynamics::groupTravel sums each group's move bounds (plus travelPad a step) from
+// where the consumer last set the entry, and groupsPastLimit lists, in group order,
+// every group whose entry is past travelLimit after a step: on every kernel, one and
+// two threads. The test plays the collision tree: it takes the list, sets those
+// entries to 0 and measures their moves from there. A renumbering (garbage
+// collection) makes every entry +inf, so every group is listed.
+TEST(Dynamics, GroupTravelSumsTheMovesFromEachReset) {
+  constexpr std::size_t G = Dynamics::kMoveGroup;
+  for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
+    if (!detail::kernelSupported(kernel)) continue;
+    ASSERT_TRUE(detail::forceKernel(kernel));
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(std::string(detail::kernelName(kernel)) + " threads " + std::to_string(threads));
+      Params p;
+      p.threads = threads;
+      p.groupMoves = true;
+      p.travelLimit = 0.5;
+      p.travelPad = 1e-9;
+      State s = makeState(makeGrid(50, 50, 3.0), p.tissue);  // 2601 vertices, a partial last group
+      s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
+      const std::size_t n = s.mesh.verticesSize(), groups = (n + G - 1) / G;
+      std::vector<Vec3> from = s.mesh.positions();  // each vertex where its entry was last set
+      std::size_t listed = 0, steps = 0;
+      for (int i = 0; i < 80; ++i) {
+        step(p, s, 1e-3);
+        const std::span<double> travel = s.groupTravel();
+        ASSERT_EQ(travel.size(), groups);
+        std::vector<std::uint32_t> want;
+        for (std::size_t g = 0; g < groups; ++g)
+          if (!(travel[g] <= p.travelLimit)) want.push_back(static_cast<std::uint32_t>(g));
+        const auto past = s.groupsPastLimit();
+        ASSERT_EQ(std::vector<std::uint32_t>(past.begin(), past.end()), want) << "step " << i;
+        if (std::isfinite(s.maxMove)) {
+          ++steps;
+          for (std::size_t g = 0; g < groups; ++g) {
+            double moved = 0.0;
+            for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v)
+              moved = std::max(moved, (s.mesh.positions()[v] - from[v]).cwiseAbs().maxCoeff());
+            ASSERT_LE(moved, travel[g]) << "step " << i << " group " << g;
+          }
+        }
+        listed += past.size();
+        // As the tree does: the listed ones (all, after a step that was not summed) restart.
+        for (std::size_t g = 0; g < groups; ++g) {
+          if (std::isfinite(s.maxMove) && !std::binary_search(want.begin(), want.end(), static_cast<std::uint32_t>(g)))
+            continue;
+          travel[g] = 0.0;
+          for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v) from[v] = s.mesh.positions()[v];
+        }
+        s.clearGroupsPastLimit();
+      }
+      EXPECT_GT(steps, 60u);
+      EXPECT_GT(listed, 0u) << "groups pass the limit";
+      EXPECT_LT(listed, steps * groups / 4) << "a group's entry sums several steps before it does";
+      // Renumbered: every entry unknown, every group listed.
+      s.mesh.garbageCollection();
+      step(p, s, 1e-3);
+      EXPECT_EQ(s.groupsPastLimit().size(), groups);
+      EXPECT_TRUE(std::isinf(s.groupTravel()[0]));
+    }
+  }
+  detail::forceKernel(std::nullopt);
+  Params unlimited;
+  unlimited.groupMoves = true;
+  State u = pushedGrid(unlimited);
+  step(unlimited, u, 1e-3);
+  EXPECT_TRUE(u.groupTravel().empty()) << "not summed without a limit";
+  EXPECT_TRUE(u.groupsPastLimit().empty());
+}
+
 }  // namespace
 }  // namespace ld::physics
