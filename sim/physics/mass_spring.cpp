@@ -273,7 +273,18 @@ void noteJournal(Cache& c, const mesh::SurfaceMesh& m) {
   c.journalF = m.editedFaces().size();
 }
 
+// Room to grow (a quarter, as the cutter reserves for its edits): the step's position
+// and velocity buffers trade places with the mesh's every step, so the cutter adds its
+// vertices to them in turn; with room just for n, each of its first additions after a
+// trade copied the whole array into fresh pages (at 100k triangles ~1 ms of page faults
+// a stroke, inside its remeshing).
+void reserveRoom(std::vector<Vec3>& x, std::size_t n) {
+  if (x.capacity() < n + 1) x.reserve(n + n / 4 + 256);
+}
+
 void sizeScratch(Cache& c, std::size_t n) {
+  reserveRoom(c.xb, n);
+  reserveRoom(c.vb, n);
   for (auto* buf : {&c.f, &c.f2, &c.xb, &c.vb, &c.scatter}) buf->resize(n, Vec3::Zero());
   for (auto* buf : {&c.f4, &c.scatter4}) buf->resize(4 * n + 8, 0.0);
 }
@@ -570,10 +581,10 @@ void zeroMasslessVelocities(const Cache& c, mesh::SurfaceMesh& m) {
 // The symplectic step's AVX-512 path loads every far end as 4 doubles (x, y, z and
 // one it drops), so at the last vertex it reads one double past the positions: every
 // array it reads positions from keeps one more vertex allocated (and zeroed, so that no
-// tool sees an uninitialised read). Costs one reallocation after a copy or a growth
-// that filled the capacity, and an O(1) write a step.
+// tool sees an uninitialised read). Costs one reallocation (with room, reserveRoom)
+// after a copy or a growth that filled the capacity, and an O(1) write a step.
 void padPositions(std::vector<Vec3>& x) {
-  if (x.capacity() == x.size()) x.reserve(x.size() + 1);
+  if (x.capacity() == x.size()) reserveRoom(x, x.size());
   x.emplace_back(Vec3::Zero());
   x.pop_back();
 }

@@ -193,6 +193,26 @@ TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
   EXPECT_TRUE(s.groupMoves2().empty()) << "the monitor's sums are off";
 }
 
+// The step's position and velocity buffers trade places with the mesh's every step;
+// both keep room for the cutter's new vertices (a quarter more), so a vertex added
+// after a step, or after the next, neither moves the arrays nor copies them.
+TEST(Dynamics, StepLeavesRoomToAddVertices) {
+  Params p;
+  State s = pushedGrid(p);
+  for (int i = 0; i < 2; ++i) {
+    step(p, s, 1e-3);
+    const std::size_t n = s.mesh.verticesSize();
+    const auto& v = s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
+    EXPECT_GE(s.mesh.positions().capacity(), n + n / 4) << "step " << i;
+    EXPECT_GE(v.capacity(), n + n / 4) << "step " << i;
+    const Vec3* x0 = s.mesh.positions().data();
+    const Vec3* v0 = v.data();
+    s.mesh.addVertex(Vec3(0, 0, 50));
+    EXPECT_EQ(s.mesh.positions().data(), x0) << "step " << i << ": the positions were moved";
+    EXPECT_EQ(s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector().data(), v0) << "step " << i;
+  }
+}
+
 // Dynamics::groupTravel sums each group's move bounds (plus travelPad a step) from
 // where the consumer last set the entry, and groupsPastLimit lists, in group order,
 // every group whose entry is past travelLimit after a step: on every kernel, one and
