@@ -772,6 +772,19 @@ void TriangleBvh::addDirty(std::uint32_t i) {
   }
 }
 
+template <class Visit>
+void TriangleBvh::forEachLeafOf(const mesh::SurfaceMesh& m, Vertex v, Visit&& visit) const {
+  if (!m.isValid(v)) return;
+  const std::uint32_t* slot = faceSlot_.data();
+  const std::size_t nSlots = faceSlot_.size();
+  for (mesh::Edge e : m.edges(v))
+    for (int k = 0; k < 2; ++k) {
+      const Face f = m.face(e, k);  // invalid (all ones) beyond nSlots
+      if (f.idx() >= nSlots || slot[f.idx()] == kNone) continue;
+      visit(blockLeaf_[slot[f.idx()] / kLeafCapacity]);
+    }
+}
+
 void TriangleBvh::finishRefit(const mesh::SurfaceMesh& m) {
   fitRound(m);
   // Vertices re-anchored in that round: their other leaves still hold boxes around the
@@ -911,14 +924,9 @@ std::size_t TriangleBvh::reanchor(const mesh::SurfaceMesh& m, const std::vector<
     // fitted once a round.
     std::vector<std::uint32_t>& leaves = fewLeaves_;
     const auto collect = [&](std::uint32_t v) {
-      if (!m.isValid(Vertex(v))) return;
-      for (mesh::Edge e : m.edges(Vertex(v)))
-        for (int k = 0; k < 2; ++k) {
-          const Face f = m.face(e, k);
-          if (f.idx() >= faceSlot_.size() || faceSlot_[f.idx()] == kNone) continue;
-          const std::uint32_t leaf = blockLeaf_[faceSlot_[f.idx()] / kLeafCapacity];
-          if (std::find(leaves.begin(), leaves.end(), leaf) == leaves.end()) leaves.push_back(leaf);
-        }
+      forEachLeafOf(m, Vertex(v), [&](std::uint32_t leaf) {
+        if (std::find(leaves.begin(), leaves.end(), leaf) == leaves.end()) leaves.push_back(leaf);
+      });
     };
     leaves.clear();
     for (std::uint32_t v : vertices) {
@@ -1026,15 +1034,7 @@ void TriangleBvh::refitFaces(const mesh::SurfaceMesh& m, std::span<const Face> f
 }
 
 inline void TriangleBvh::addVertexLeaves(const mesh::SurfaceMesh& m, Vertex v) {
-  if (!m.isValid(v)) return;
-  const std::uint32_t* slot = faceSlot_.data();
-  const std::size_t nSlots = faceSlot_.size();
-  for (mesh::Edge e : m.edges(v))
-    for (int k = 0; k < 2; ++k) {
-      const Face f = m.face(e, k);  // invalid (all ones) beyond nSlots
-      if (f.idx() >= nSlots || slot[f.idx()] == kNone) continue;
-      addDirty(blockLeaf_[slot[f.idx()] / kLeafCapacity]);
-    }
+  forEachLeafOf(m, v, [&](std::uint32_t leaf) { addDirty(leaf); });
 }
 
 void TriangleBvh::anchorMoved(const mesh::SurfaceMesh& m, std::uint32_t v) {

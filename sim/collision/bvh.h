@@ -285,6 +285,9 @@ class TriangleBvh {
   void addDirty(std::uint32_t node);
   void finishRefit(const mesh::SurfaceMesh& m);
   void addVertexLeaves(const mesh::SurfaceMesh& m, mesh::Vertex v);
+  // visit(leaf) for each leaf holding a face around v (a leaf once per face).
+  template <class Visit>
+  void forEachLeafOf(const mesh::SurfaceMesh& m, mesh::Vertex v, Visit&& visit) const;
   [[nodiscard]] Box boxOf(std::size_t i) const;
   // Every tracked vertex is within this of its anchor (per coordinate): queries grow
   // the boxes (fitted around the anchors) by it. 0 without a margin.

@@ -243,6 +243,12 @@ struct CutEngine::Impl {
       if (objects[i].id == id) return static_cast<int>(i);
     return -1;
   }
+  // The object's index for the public calls that name it: CutError for an unknown id.
+  std::size_t indexOfKnown(int id) const {
+    const int i = indexOf(id);
+    if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+    return static_cast<std::size_t>(i);
+  }
   SurfaceMesh& meshOf(int id) { return objects[static_cast<std::size_t>(indexOf(id))].mesh; }
   bool closedObject(int id) const {
     const int i = indexOf(id);
@@ -3778,25 +3784,22 @@ int CutEngine::addObject(mesh::SurfaceMesh m) {
 const std::vector<TissueObject>& CutEngine::objects() const { return impl_->objects; }
 
 TissueObject& CutEngine::object(int id) {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  const std::size_t k = impl_->indexOfKnown(id);
   // The caller may move vertices: the object's BVH is refitted before the next query.
-  impl_->moved[static_cast<std::size_t>(i)] = 1;
-  impl_->moveBound[static_cast<std::size_t>(i)] = std::numeric_limits<double>::infinity();
+  impl_->moved[k] = 1;
+  impl_->moveBound[k] = std::numeric_limits<double>::infinity();
   ++impl_->motionCount;  // and the tracks' start and pending points move with it
-  return impl_->objects[static_cast<std::size_t>(i)];
+  return impl_->objects[k];
 }
 
 mesh::SurfaceMesh& CutEngine::meshToMove(int id) {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
-  return impl_->objects[static_cast<std::size_t>(i)].mesh;
+  const std::size_t k = impl_->indexOfKnown(id);
+  return impl_->objects[k].mesh;
 }
 
 void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
-  impl_->noteMoved(static_cast<std::size_t>(i), vertices);
+  const std::size_t k = impl_->indexOfKnown(id);
+  impl_->noteMoved(k, vertices);
   // The tracks' start and pending points move with the tissue they are anchored to.
   if (!vertices.empty()) ++impl_->motionCount;
 }
@@ -3804,9 +3807,7 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
 void CutEngine::verticesMoved(int id) { (void)object(id); }
 
 void CutEngine::verticesMovedWithin(int id, double maxMove) {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
-  const auto k = static_cast<std::size_t>(i);
+  const std::size_t k = impl_->indexOfKnown(id);
   if (!(maxMove >= 0.0)) maxMove = std::numeric_limits<double>::infinity();  // NaN or negative: unknown
   impl_->moveBound[k] = impl_->moved[k] ? impl_->moveBound[k] + maxMove : maxMove;
   impl_->moved[k] = 1;
@@ -3816,10 +3817,8 @@ void CutEngine::verticesMovedWithin(int id, double maxMove) {
 void CutEngine::verticesTravelled(int id, double maxMove, std::span<double> travel, std::span<const std::uint32_t> past,
                                   std::size_t groupSize) {
   if (groupSize == 0) throw CutError("verticesTravelled: groupSize must be > 0");
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
+  const std::size_t k = impl_->indexOfKnown(id);
   Impl& I = *impl_;
-  const auto k = static_cast<std::size_t>(i);
   // A step that was not summed, or earlier moves not yet taken (their bound is one
   // number): the tree checks them its own way (and leaves the travelled mode).
   if (!std::isfinite(maxMove) || !(maxMove >= 0.0) || I.moved[k] || I.bvhs[k].motionMargin() <= 0.0) {
@@ -3846,15 +3845,13 @@ void CutEngine::verticesTravelled(int id, double maxMove, std::span<double> trav
 }
 
 double CutEngine::travelLimit(int id) const {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
-  return impl_->bvhs[static_cast<std::size_t>(i)].travelLimit();
+  const std::size_t k = impl_->indexOfKnown(id);
+  return impl_->bvhs[k].travelLimit();
 }
 
 double CutEngine::travelPad(int id) const {
-  const int i = impl_->indexOf(id);
-  if (i < 0) throw CutError("no tissue object with id " + std::to_string(id));
-  return impl_->bvhs[static_cast<std::size_t>(i)].travelPad();
+  const std::size_t k = impl_->indexOfKnown(id);
+  return impl_->bvhs[k].travelPad();
 }
 
 StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {

@@ -133,53 +133,72 @@ TEST(Dynamics, MaxMoveBoundsTheStepsLargestMove) {
   EXPECT_EQ(s.maxMove, std::numeric_limits<double>::infinity()) << "the monitor's sums are off";
 }
 
+// body(p, s) on every step kernel this CPU has (forced), with one and two threads: s
+// a 2601-vertex grid (a partial last group, past the two-thread size) pushed at one
+// vertex, p = base with the threads and the group bounds (Params::groupMoves) set.
+template <class Body>
+void onPushedGroupGrid(const Params& base, Body&& body) {
+  for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
+    if (!detail::kernelSupported(kernel)) continue;
+    ASSERT_TRUE(detail::forceKernel(kernel));
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(std::string(detail::kernelName(kernel)) + " threads " + std::to_string(threads));
+      Params p = base;
+      p.threads = threads;
+      p.groupMoves = true;
+      State s = makeState(makeGrid(50, 50, 3.0), p.tissue);
+      s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
+      body(p, s);
+      if (::testing::Test::HasFatalFailure()) break;
+    }
+    if (::testing::Test::HasFatalFailure()) break;
+  }
+  detail::forceKernel(std::nullopt);
+}
+
+// How far (per coordinate) the farthest vertex of group g (of kMoveGroup) is from `from`.
+double groupMoved(const mesh::SurfaceMesh& m, const std::vector<Vec3>& from, std::size_t g) {
+  constexpr std::size_t G = Dynamics::kMoveGroup;
+  double moved = 0.0;
+  for (std::size_t v = g * G; v < std::min(from.size(), (g + 1) * G); ++v)
+    moved = std::max(moved, (m.positions()[v] - from[v]).cwiseAbs().maxCoeff());
+  return moved;
+}
+
 // Dynamics::groupMoves2 bounds each group of kMoveGroup vertices' moves apart (what a
 // collision tree looks at the fast vertices by): on every kernel, with one and two
 // threads (a grid past the two-thread size), tight, with the largest group at
 // maxMove; empty where maxMove is unknown or Params::groupMoves is off.
 TEST(Dynamics, GroupMovesBoundEachGroupsMoves) {
   constexpr std::size_t G = Dynamics::kMoveGroup;
-  for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
-    if (!detail::kernelSupported(kernel)) continue;
-    ASSERT_TRUE(detail::forceKernel(kernel));
-    for (int threads : {1, 2}) {
-      Params p;
-      p.threads = threads;
-      p.groupMoves = true;
-      State s = makeState(makeGrid(50, 50, 3.0), p.tissue);  // 2601 vertices, a partial last group
-      s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
-      std::size_t checked = 0, quiet = 0;
-      for (int i = 0; i < 60; ++i) {
-        const std::vector<Vec3> before = s.mesh.positions();
-        const StepInfo info = step(p, s, 1e-3);
-        const auto g2 = s.groupMoves2();
-        if (!(info.accepted && info.substeps == 1)) {
-          EXPECT_TRUE(g2.empty());
-          continue;
-        }
-        const std::size_t n = before.size();
-        ASSERT_EQ(g2.size(), (n + G - 1) / G) << detail::kernelName(kernel);
-        double largest = 0.0;
-        for (std::size_t g = 0; g < g2.size(); ++g) {
-          double moved = 0.0;
-          for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v)
-            moved = std::max(moved, (s.mesh.positions()[v] - before[v]).cwiseAbs().maxCoeff());
-          const double bound = std::sqrt(g2[g]);
-          // (Up to the rounding of x + dx, a few ulps of the coordinates, as maxMove.)
-          ASSERT_LE(moved, bound + 4.0 * DBL_EPSILON * 150.0)
-              << detail::kernelName(kernel) << " threads " << threads << " step " << i << " group " << g;
-          ASSERT_LE(bound, 1.001 * moved + 1e-12) << "a bound, but not a loose one";
-          largest = std::max(largest, bound);
-          quiet += bound < 0.1 * s.maxMove;
-          ++checked;
-        }
-        EXPECT_NEAR(largest, s.maxMove, 1e-9 * s.maxMove) << "the largest group moved the most";
+  onPushedGroupGrid(Params{}, [&](const Params& p, State& s) {
+    std::size_t checked = 0, quiet = 0;
+    for (int i = 0; i < 60; ++i) {
+      const std::vector<Vec3> before = s.mesh.positions();
+      const StepInfo info = step(p, s, 1e-3);
+      const auto g2 = s.groupMoves2();
+      if (!(info.accepted && info.substeps == 1)) {
+        EXPECT_TRUE(g2.empty());
+        continue;
       }
-      EXPECT_GT(checked, 1000u);
-      EXPECT_GT(quiet, 0u) << "groups far from the push move less than the step's largest move";
+      const std::size_t n = before.size();
+      ASSERT_EQ(g2.size(), (n + G - 1) / G);
+      double largest = 0.0;
+      for (std::size_t g = 0; g < g2.size(); ++g) {
+        const double moved = groupMoved(s.mesh, before, g);
+        const double bound = std::sqrt(g2[g]);
+        // (Up to the rounding of x + dx, a few ulps of the coordinates, as maxMove.)
+        ASSERT_LE(moved, bound + 4.0 * DBL_EPSILON * 150.0) << "step " << i << " group " << g;
+        ASSERT_LE(bound, 1.001 * moved + 1e-12) << "a bound, but not a loose one";
+        largest = std::max(largest, bound);
+        quiet += bound < 0.1 * s.maxMove;
+        ++checked;
+      }
+      EXPECT_NEAR(largest, s.maxMove, 1e-9 * s.maxMove) << "the largest group moved the most";
     }
-  }
-  detail::forceKernel(std::nullopt);
+    EXPECT_GT(checked, 1000u);
+    EXPECT_GT(quiet, 0u) << "groups far from the push move less than the step's largest move";
+  });
   Params unasked;
   State u = pushedGrid(unasked);
   step(unasked, u, 1e-3);
@@ -221,60 +240,46 @@ TEST(Dynamics, StepLeavesRoomToAddVertices) {
 // collection) makes every entry +inf, so every group is listed.
 TEST(Dynamics, GroupTravelSumsTheMovesFromEachReset) {
   constexpr std::size_t G = Dynamics::kMoveGroup;
-  for (detail::Kernel kernel : {detail::Kernel::Scalar, detail::Kernel::Avx2, detail::Kernel::Avx512}) {
-    if (!detail::kernelSupported(kernel)) continue;
-    ASSERT_TRUE(detail::forceKernel(kernel));
-    for (int threads : {1, 2}) {
-      SCOPED_TRACE(std::string(detail::kernelName(kernel)) + " threads " + std::to_string(threads));
-      Params p;
-      p.threads = threads;
-      p.groupMoves = true;
-      p.travelLimit = 0.5;
-      p.travelPad = 1e-9;
-      State s = makeState(makeGrid(50, 50, 3.0), p.tissue);  // 2601 vertices, a partial last group
-      s.mesh.position(nearestVertex(s.mesh, Vec3(60, 60, 0))).z() -= 4.0;
-      const std::size_t n = s.mesh.verticesSize(), groups = (n + G - 1) / G;
-      std::vector<Vec3> from = s.mesh.positions();  // each vertex where its entry was last set
-      std::size_t listed = 0, steps = 0;
-      for (int i = 0; i < 80; ++i) {
-        step(p, s, 1e-3);
-        const std::span<double> travel = s.groupTravel();
-        ASSERT_EQ(travel.size(), groups);
-        std::vector<std::uint32_t> want;
-        for (std::size_t g = 0; g < groups; ++g)
-          if (!(travel[g] <= p.travelLimit)) want.push_back(static_cast<std::uint32_t>(g));
-        const auto past = s.groupsPastLimit();
-        ASSERT_EQ(std::vector<std::uint32_t>(past.begin(), past.end()), want) << "step " << i;
-        if (std::isfinite(s.maxMove)) {
-          ++steps;
-          for (std::size_t g = 0; g < groups; ++g) {
-            double moved = 0.0;
-            for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v)
-              moved = std::max(moved, (s.mesh.positions()[v] - from[v]).cwiseAbs().maxCoeff());
-            ASSERT_LE(moved, travel[g]) << "step " << i << " group " << g;
-          }
-        }
-        listed += past.size();
-        // As the tree does: the listed ones (all, after a step that was not summed) restart.
-        for (std::size_t g = 0; g < groups; ++g) {
-          if (std::isfinite(s.maxMove) && !std::binary_search(want.begin(), want.end(), static_cast<std::uint32_t>(g)))
-            continue;
-          travel[g] = 0.0;
-          for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v) from[v] = s.mesh.positions()[v];
-        }
-        s.clearGroupsPastLimit();
-      }
-      EXPECT_GT(steps, 60u);
-      EXPECT_GT(listed, 0u) << "groups pass the limit";
-      EXPECT_LT(listed, steps * groups / 4) << "a group's entry sums several steps before it does";
-      // Renumbered: every entry unknown, every group listed.
-      s.mesh.garbageCollection();
+  Params base;
+  base.travelLimit = 0.5;
+  base.travelPad = 1e-9;
+  onPushedGroupGrid(base, [&](const Params& p, State& s) {
+    const std::size_t n = s.mesh.verticesSize(), groups = (n + G - 1) / G;
+    std::vector<Vec3> from = s.mesh.positions();  // each vertex where its entry was last set
+    std::size_t listed = 0, steps = 0;
+    for (int i = 0; i < 80; ++i) {
       step(p, s, 1e-3);
-      EXPECT_EQ(s.groupsPastLimit().size(), groups);
-      EXPECT_TRUE(std::isinf(s.groupTravel()[0]));
+      const std::span<double> travel = s.groupTravel();
+      ASSERT_EQ(travel.size(), groups);
+      std::vector<std::uint32_t> want;
+      for (std::size_t g = 0; g < groups; ++g)
+        if (!(travel[g] <= p.travelLimit)) want.push_back(static_cast<std::uint32_t>(g));
+      const auto past = s.groupsPastLimit();
+      ASSERT_EQ(std::vector<std::uint32_t>(past.begin(), past.end()), want) << "step " << i;
+      if (std::isfinite(s.maxMove)) {
+        ++steps;
+        for (std::size_t g = 0; g < groups; ++g)
+          ASSERT_LE(groupMoved(s.mesh, from, g), travel[g]) << "step " << i << " group " << g;
+      }
+      listed += past.size();
+      // As the tree does: the listed ones (all, after a step that was not summed) restart.
+      for (std::size_t g = 0; g < groups; ++g) {
+        if (std::isfinite(s.maxMove) && !std::binary_search(want.begin(), want.end(), static_cast<std::uint32_t>(g)))
+          continue;
+        travel[g] = 0.0;
+        for (std::size_t v = g * G; v < std::min(n, (g + 1) * G); ++v) from[v] = s.mesh.positions()[v];
+      }
+      s.clearGroupsPastLimit();
     }
-  }
-  detail::forceKernel(std::nullopt);
+    EXPECT_GT(steps, 60u);
+    EXPECT_GT(listed, 0u) << "groups pass the limit";
+    EXPECT_LT(listed, steps * groups / 4) << "a group's entry sums several steps before it does";
+    // Renumbered: every entry unknown, every group listed.
+    s.mesh.garbageCollection();
+    step(p, s, 1e-3);
+    EXPECT_EQ(s.groupsPastLimit().size(), groups);
+    EXPECT_TRUE(std::isinf(s.groupTravel()[0]));
+  });
   Params unlimited;
   unlimited.groupMoves = true;
   State u = pushedGrid(unlimited);
