@@ -1253,7 +1253,7 @@ struct CutEngine::Impl {
     for (std::size_t i = 0; i + 1 < half.size(); ++i)
       shortest = std::min(shortest, (m.position(half[i + 1]) - m.position(half[i])).norm());
     const double need = std::max(0.6 * thr, half.size() > kLongFront ? 0.0 : std::min(thr, 0.5 * shortest));
-    return loopQuality(m, half) >= need;
+    return !loopFallsShort(m, half, need) && loopQuality(m, half) >= need;
   }
   static constexpr std::size_t kLongFront = 24;
 
@@ -1313,6 +1313,30 @@ struct CutEngine::Impl {
       }
     }
     return true;
+  }
+
+  // Every triangulation of the loop has a triangle on each loop edge: when some edge has
+  // no apex (another loop vertex) making a triangle as thick as `need`, none reaches it.
+  // Shortest edges first (a triangle is no thicker than its shortest edge): a growing
+  // front that cannot open yet is turned down in a few heights, not a cubic search.
+  static bool loopFallsShort(const SurfaceMesh& m, const std::vector<Vertex>& ids, double need) {
+    const std::size_t n = ids.size();
+    if (n < 3 || n > 64) return false;
+    std::array<std::pair<double, std::size_t>, 64> order;
+    for (std::size_t i = 0; i < n; ++i)
+      order[i] = {(m.position(ids[(i + 1) % n]) - m.position(ids[i])).squaredNorm(), i};
+    std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(n));
+    for (std::size_t r = 0; r < n; ++r) {
+      const std::size_t i = order[r].second, j = (i + 1) % n;
+      const Vec3 a = m.position(ids[i]), b = m.position(ids[j]);
+      bool reaches = false;
+      // (A NaN height does not count against the loop, as in triangulate; the margin
+      // covers the rounding of a height taken from another corner.)
+      for (std::size_t k = 0; k < n && !reaches; ++k)
+        reaches = k != i && k != j && !(height(a, b, m.position(ids[k])) < (1.0 - 1e-9) * need);
+      if (!reaches) return true;
+    }
+    return false;
   }
 
   // Best smallest triangle height for closing a loop of vertices (copies listed as
@@ -1562,7 +1586,8 @@ struct CutEngine::Impl {
   // Triangulation of a closed polygon maximising the smallest triangle height (dynamic
   // programming, O(n³)); triangles in pre-order from the edge (n-1, 0), so that each
   // shares an edge with one listed before it. Returns the smallest height, or -inf.
-  static double triangulate(const std::vector<Vec3>& P, const std::function<bool(int, int)>& diagonalOk,
+  template <class DiagonalOk>
+  static double triangulate(const std::vector<Vec3>& P, const DiagonalOk& diagonalOk,
                             std::vector<std::array<int, 3>>& out) {
     const int n = static_cast<int>(P.size());
     out.clear();
@@ -1591,8 +1616,11 @@ struct CutEngine::Impl {
       for (int s = 1; s + 1 < n; ++s) out.push_back({bestK, (bestK + s) % n, (bestK + s + 1) % n});
       return bestQ;
     }
-    std::vector<double> best(static_cast<std::size_t>(n * n), -inf);
-    std::vector<int> split(static_cast<std::size_t>(n * n), -1);
+    // (n <= 20: the tables fit on the stack)
+    std::array<double, 400> best;
+    std::array<int, 400> split;
+    std::fill_n(best.begin(), n * n, -inf);
+    std::fill_n(split.begin(), n * n, -1);
     auto at = [&](int i, int j) -> double& { return best[static_cast<std::size_t>(i * n + j)]; };
     for (int i = 0; i + 1 < n; ++i) at(i, i + 1) = inf;
     for (int len = 2; len < n; ++len)
@@ -1600,9 +1628,12 @@ struct CutEngine::Impl {
         const int j = i + len;
         if (len < n - 1 && !diagonalOk(i, j)) continue;
         for (int k = i + 1; k < j; ++k) {
-          const double val = std::min(
-              {at(i, k), at(k, j),
-               height(P[static_cast<std::size_t>(i)], P[static_cast<std::size_t>(k)], P[static_cast<std::size_t>(j)])});
+          // A split whose two sides are no better than the best so far cannot beat it:
+          // its height need not be computed (same result, same split).
+          const double sides = std::min(at(i, k), at(k, j));
+          if (!(sides > at(i, j))) continue;
+          const double val = std::min(sides, height(P[static_cast<std::size_t>(i)], P[static_cast<std::size_t>(k)],
+                                                    P[static_cast<std::size_t>(j)]));
           if (val > at(i, j)) {
             at(i, j) = val;
             split[static_cast<std::size_t>(i * n + j)] = k;
