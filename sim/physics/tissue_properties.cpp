@@ -51,11 +51,8 @@ struct Props {
   mesh::VertexProperty<Vec3> home, vel, force;
   mesh::VertexProperty<double> mass;
   mesh::EdgeProperty<double> rest, k;
-  // Buffers for a hook's one-ring and a vertex's faces, kept for the hook's masses (a
-  // vector grown face by face for every vertex of a ring was a third of the allocations
-  // of a cut with physics on).
+  // A hook's one-ring, kept for the hook's masses.
   std::vector<Vertex> ring;
-  std::vector<Face> faces;
   explicit Props(const SurfaceMesh& m)
       : home(m.getVertexProperty<Vec3>(kHomeProp)),
         vel(m.getVertexProperty<Vec3>(kVelocityProp)),
@@ -102,30 +99,40 @@ double springSum(const SurfaceMesh& m, Vertex v, const mesh::EdgeProperty<double
 
 double springSum(const SurfaceMesh& m, Vertex v) { return springSum(m, v, m.getEdgeProperty<double>(kStiffnessProp)); }
 
-// lumpedMass with the properties at hand and a face buffer (same faces, same order).
-double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, const Props& q, std::vector<Face>& faces) {
+// The home areas of v's faces, each face taken once: from the edge that runs from v to
+// the face's next corner (no face list to build and search for repeats).
+double homeAreaAround(const SurfaceMesh& m, const mesh::VertexProperty<Vec3>& home, Vertex v) {
+  double area = 0.0;
+  for (Edge e : m.edges(v)) {
+    const Vertex a = m.otherVertex(e, v);
+    for (int side = 0; side < 2; ++side) {
+      const Face f = m.face(e, side);
+      if (!f.isValid()) continue;
+      const auto& fv = m.vertices(f);
+      if ((fv[0] == v && fv[1] == a) || (fv[1] == v && fv[2] == a) || (fv[2] == v && fv[0] == a))
+        area += homeArea(m, home, f);
+    }
+  }
+  return area;
+}
+
+// lumpedMass with the properties at hand.
+double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, const Props& q) {
   const double floor = p.massFloorDt > 0.0 ? massFloor(p, springSum(m, v, q.k)) : 0.0;
   if (p.uniformMass) return std::max(p.vertexMass, floor);
-  const auto& home = need(q.home, kHomeProp);
-  double area = 0.0;
-  m.faces(v, faces);
-  for (Face f : faces) area += homeArea(m, home, f);
+  const double area = homeAreaAround(m, need(q.home, kHomeProp), v);
   return std::max({p.density * area / 3.0, p.minMass, floor});
 }
 
 void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p, Props& q) {
   auto& mass = need(q.mass, kMassProp);
-  q.faces.reserve(32);
   for (Vertex v : vertices)
-    if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q, q.faces);
+    if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q);
 }
 
 }  // namespace
 
-double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) {
-  std::vector<Face> faces;
-  return lumpedMassWith(m, v, p, Props(m), faces);
-}
+double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) { return lumpedMassWith(m, v, p, Props(m)); }
 
 void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
   auto home = m.vertexProperty<Vec3>(kHomeProp, Vec3::Zero());
