@@ -352,6 +352,44 @@ TEST(SurfaceMesh, PropertiesGrowAndRejectWrongTypes) {
   EXPECT_FALSE(m.getVertexProperty<float>("v:w").isValid());
 }
 
+// Names alike in length and first bytes, short and long, found apart; after a removal,
+// a copy and a move each name still finds its own array.
+TEST(SurfaceMesh, PropertiesAreFoundByTheirWholeName) {
+  SurfaceMesh m = square();
+  const std::vector<std::string> names{"v:abcdef1",         "v:abcdef2", "v:abcdefgh_long_1",
+                                       "v:abcdefgh_long_2", "v:a",       "v:b"};
+  for (std::size_t i = 0; i < names.size(); ++i) m.addVertexProperty<int>(names[i], static_cast<int>(i));
+  auto expectAll = [&](const SurfaceMesh& x, const std::vector<std::string>& present, const std::string& what) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const auto p = x.getVertexProperty<int>(names[i]);
+      const bool want = std::find(present.begin(), present.end(), names[i]) != present.end();
+      ASSERT_EQ(p.isValid(), want) << what << ": " << names[i];
+      if (want) {
+        EXPECT_EQ(p[Vertex(0)], static_cast<int>(i)) << what << ": " << names[i];
+      }
+    }
+    EXPECT_FALSE(x.getVertexProperty<int>("v:abcdefgh_long_3").isValid()) << what;
+    EXPECT_FALSE(x.getVertexProperty<int>("v:abcdef").isValid()) << what;
+    EXPECT_FALSE(x.getVertexProperty<int>("v:abcdef12").isValid()) << what;
+  };
+  expectAll(m, names, "added");
+  m.removeVertexProperty("v:abcdef1");
+  m.removeVertexProperty("v:abcdefgh_long_1");
+  const std::vector<std::string> left{"v:abcdef2", "v:abcdefgh_long_2", "v:a", "v:b"};
+  expectAll(m, left, "after removals");
+  const SurfaceMesh copy = m;
+  expectAll(copy, left, "copy");
+  SurfaceMesh assigned = square();
+  assigned = copy;
+  expectAll(assigned, left, "copy-assigned");
+  const SurfaceMesh moved = std::move(assigned);
+  expectAll(moved, left, "moved");
+  // A name given back after its removal is the new array's.
+  m.addVertexProperty<int>("v:abcdef1", 42);
+  EXPECT_EQ(m.getVertexProperty<int>("v:abcdef1")[Vertex(0)], 42);
+  EXPECT_EQ(m.getVertexProperty<int>("v:abcdef2")[Vertex(0)], 1);
+}
+
 // Thousands of random edits on closed and open meshes with validate() after each.
 TEST(SurfaceMesh, RandomEditsKeepInvariants) {
   std::mt19937 rng(20261122);
