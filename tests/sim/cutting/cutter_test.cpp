@@ -532,6 +532,126 @@ TEST(CutterPhysics, GrooveOnMovingTissueReusesItsBottomVertices) {
   EXPECT_LE(perMoving, perStill + 0.5) << "still " << perStill << ", moving " << perMoving;
 }
 
+// The area of m's faces at their home (rest) positions.
+double homeArea(const mesh::SurfaceMesh& m) {
+  const auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+  double a = 0.0;
+  for (auto f : m.faces()) {
+    const auto& v = m.vertices(f);
+    a += 0.5 * (home[v[1]] - home[v[0]]).cross(home[v[2]] - home[v[0]]).norm();
+  }
+  return a;
+}
+
+// A slot cut through the pre-stretched box from its side opens under physics; a second
+// stroke from the same side turns and crosses the open slot, where the blade meets no
+// tissue between the walls. The piece between the two cuts still comes free, and both
+// objects are closed and sound all along (the case SecondStrokeCrossingAnEarlierSlot
+// covers on still tissue, where the walls touch).
+TEST(CutterPhysics, SecondStrokeCrossingAnOpenedSlotFreesThePieceBetween) {
+  MovingBox box;
+  CutEngine& e = box.engine;
+  const int id = box.id;
+  auto stepPhysics = [&](CutEngine& en) {
+    physics::step(box.pp, box.dyn, en.meshToMove(id), 1e-3);
+    en.verticesMovedWithin(id, box.dyn.maxMove);
+  };
+  int sample = 0;
+  auto check = [&](CutEngine& en) {
+    if (++sample % 25 == 0) expectSound(en, true);
+  };
+  for (int i = 0; i < 20; ++i) stepPhysics(e);
+  const double y0 = 0.37, y1 = 8.3, x1 = -10.3;
+  test::polyStroke(e, {Vec3(-35, y0, -4), Vec3(5, y0, -4)}, Vec3(0, 0, -1), 20.0, 1000.0, [&](CutEngine& en) {
+    stepPhysics(en);
+    check(en);
+  });
+  ASSERT_EQ(e.objects().size(), 1u) << "a slot from the side frees nothing";
+  for (int i = 0; i < 300; ++i) stepPhysics(e);
+  ASSERT_GT(widestOpening(e.objects()[0].mesh), 0.2) << "the slot should gape before the second stroke (mm)";
+  test::polyStroke(e, {Vec3(-35, y1, -4), Vec3(x1, y1, -4), Vec3(x1, -6, -4)}, Vec3(0, 0, -1), 20.0, 1000.0,
+                   [&](CutEngine& en) {
+                     if (en.objects().size() == 1) stepPhysics(en);
+                     check(en);
+                   });
+  expectSound(e, true);
+  ASSERT_EQ(e.objects().size(), 2u) << "the piece between the cuts stays attached";
+  EXPECT_EQ(e.stats().walkFailures, 0);
+  EXPECT_EQ(e.stats().fillFailures, 0);
+  const bool first = e.objects()[0].mesh.nFaces() < e.objects()[1].mesh.nFaces();
+  const auto& piece = e.objects()[first ? 0 : 1].mesh;
+  EXPECT_EQ(test::eulerCharacteristic(piece), 2);
+  // At rest, about the block the two cuts bound: (x1 - -30) x (y1 - y0) x 5 mm (the
+  // second cut was made on moving tissue, so its walls lie only near their rest lines;
+  // here 588.9 against 588.7 mm²).
+  const double w = x1 + 30.0, d = y1 - y0;
+  const double want = 2 * w * d + 2 * (w + d) * 5.0;
+  EXPECT_NEAR(homeArea(piece), want, 0.01 * want);
+}
+
+// The widest gap between the rest-frame y of the vertices from `firstNew` on whose
+// rest x is within tol of x, over [y1, y0] with the band (band0, band1) left out (the
+// earlier slot): a stretch of a stroke's path that a cut did not follow.
+double widestGapAlong(const mesh::SurfaceMesh& m, std::uint32_t firstNew, double x, double tol, double y0, double y1,
+                      double band0, double band1) {
+  const auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+  std::vector<double> ys{y0, y1, band0, band1};
+  for (auto v : m.vertices())
+    if (v.idx() >= firstNew && std::abs(home[v].x() - x) < tol) ys.push_back(home[v].y());
+  std::sort(ys.begin(), ys.end());
+  double gap = 0.0;
+  for (std::size_t i = 0; i + 1 < ys.size(); ++i) {
+    const double a = ys[i], b = ys[i + 1];
+    if (a < y1 || b > y0 || (a >= band0 && b <= band1)) continue;
+    gap = std::max(gap, b - a);
+  }
+  return gap;
+}
+
+// A groove (1.2 mm deep) and a cut-through, each crossing an earlier slot in the middle
+// of their path, on still tissue and on tissue whose slot has opened under physics: the
+// mesh stays closed and sound at every check, nothing comes free, and the new cut
+// follows the whole path on both sides of the slot (no stretch of it left uncut).
+TEST(CutterPhysics, StrokesCrossingASlotCutOnBothSidesOfIt) {
+  for (bool moving : {false, true})
+    for (double tipZ : {1.3, -4.0}) {
+      SCOPED_TRACE(std::string(moving ? "moving" : "still") + (tipZ > 0 ? " groove" : " cut-through"));
+      MovingBox box;
+      CutEngine& e = box.engine;
+      const int id = box.id;
+      auto stepPhysics = [&](CutEngine& en) {
+        if (!moving) return;
+        physics::step(box.pp, box.dyn, en.meshToMove(id), 1e-3);
+        en.verticesMovedWithin(id, box.dyn.maxMove);
+      };
+      int sample = 0;
+      auto check = [&](CutEngine& en) {
+        stepPhysics(en);
+        if (++sample % 25 == 0) expectSound(en, true);
+      };
+      for (int i = 0; i < 20; ++i) stepPhysics(e);
+      const double ySlot = 0.37, x = -10.3, yStart = 8.3, yEnd = -6.0;
+      test::polyStroke(e, {Vec3(-35, ySlot, -4), Vec3(5, ySlot, -4)}, Vec3(0, 0, -1), 20.0, 1000.0, check);
+      for (int i = 0; i < 300; ++i) stepPhysics(e);
+      if (moving) {
+        ASSERT_GT(widestOpening(e.objects()[0].mesh), 0.2) << "the slot should gape (mm)";
+      }
+      const auto firstNew = static_cast<std::uint32_t>(e.objects()[0].mesh.verticesSize());
+      const long cutBefore = e.stats().trianglesCut;
+      test::polyStroke(e, {Vec3(x, yStart, tipZ), Vec3(x, yEnd, tipZ)}, Vec3(0, 0, -1), 20.0, 1000.0, check);
+      expectSound(e, true);
+      ASSERT_EQ(e.objects().size(), 1u) << "a cut crossing a slot from the side frees nothing";
+      EXPECT_EQ(e.stats().fillFailures, 0);
+      EXPECT_GT(e.stats().trianglesCut - cutBefore, 20);
+      // Cells are 1.5 x 1.48 mm: a cut that follows the path has a vertex on every edge
+      // it crosses, so gaps stay under about a cell (here 1.28-1.29 mm; leaving 6 mm of
+      // the path out reads 2.9-3.1). Margins: a cell at the ends, half of one at the slot.
+      const double gap =
+          widestGapAlong(e.objects()[0].mesh, firstNew, x, 1.0, yStart - 1.5, yEnd + 1.5, ySlot - 0.75, ySlot + 0.75);
+      EXPECT_LT(gap, 1.7) << "a stretch of the path was left uncut (mm, rest frame)";
+    }
+}
+
 // The physics' sums of each vertex group's moves (Dynamics::groupTravel, the groups
 // past the tree's limit listed) change only how the collision tree is kept (no passes
 // over all the vertices after the first), never what it answers: the same stroke on
