@@ -302,12 +302,17 @@ struct CutEngine::Impl {
     Dirty(int o, Vertex x) : obj(o), v(x) {}
   };
   std::vector<Dirty> dirty;
+  // The tissue properties of the mesh last edited, looked up again only for another
+  // mesh or a changed property set (several hooks run per edit).
+  physics::TissueHandles tissueHandles;
+  physics::TissueHandles& handlesOf(const SurfaceMesh& m) { return tissueHandles.of(m); }
 
   void touch(int obj, std::initializer_list<Vertex> vs) {
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
     if (!tissue(obj)) return;
-    physics::initEdgesAround(meshOf(obj), std::span<const Vertex>(vs.begin(), vs.size()), p.tissue);
+    physics::initEdgesAround(meshOf(obj), handlesOf(meshOf(obj)), std::span<const Vertex>(vs.begin(), vs.size()),
+                             p.tissue);
   }
 
   // touch(obj, {v}) right after a physics::initVertexOnEdge/InFace hook, which has set
@@ -322,7 +327,7 @@ struct CutEngine::Impl {
   void touchEach(int obj, std::span<const Vertex> vs) {
     for (Vertex v : vs)
       if (v.isValid()) dirty.emplace_back(obj, v);
-    if (tissue(obj)) physics::initEdgesAround(meshOf(obj), vs, p.tissue);
+    if (tissue(obj)) physics::initEdgesAround(meshOf(obj), handlesOf(meshOf(obj)), vs, p.tissue);
   }
 
   // ---- geometry helpers --------------------------------------------------------------
@@ -537,7 +542,7 @@ struct CutEngine::Impl {
       std::cerr << "\n";
     }
     const Vertex v = m.splitEdge(e, q);
-    if (tissue(obj)) physics::initVertexOnEdge(m, v, a, b, t, p.tissue);
+    if (tissue(obj)) physics::initVertexOnEdge(m, handlesOf(m), v, a, b, t, p.tissue);
     touchInitialised(obj, v);
     traceThin(obj, {v}, hBefore < 0.25 * p.snapDistance ? "splitEdge/inherited" : "splitEdge/new");
     return v;
@@ -616,7 +621,7 @@ struct CutEngine::Impl {
     }
     const Vec3 bary = barycentric(m, f, P);
     const Vertex nv = m.splitFace(f, P);
-    if (tissue(obj)) physics::initVertexInFace(m, nv, v[0], v[1], v[2], bary, p.tissue);
+    if (tissue(obj)) physics::initVertexInFace(m, handlesOf(m), nv, v[0], v[1], v[2], bary, p.tissue);
     touchInitialised(obj, nv);
     traceThin(obj, {nv}, "splitFace");
     return nv;
@@ -709,7 +714,7 @@ struct CutEngine::Impl {
     for (int g = 1; g < groups; ++g) {
       const Vertex nv = m.splitVertex(x, fanGroupsBuf[static_cast<std::size_t>(g)]);
       if (!nv.isValid()) continue;
-      if (tissue(obj)) physics::initVertexCopy(m, nv, x, p.tissue);
+      if (tissue(obj)) physics::initVertexCopy(m, handlesOf(m), nv, x, p.tissue);
       made.push_back(nv);
     }
     return made;
@@ -869,7 +874,7 @@ struct CutEngine::Impl {
       apexOf(m)[B] = 1;
       if (tissue(obj)) {
         // (Its springs and mass: the caller's touchEach, extend being the only caller.)
-        physics::copyVertexState(m, B, n);
+        physics::copyVertexState(handlesOf(m), B, n);
         auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
         if (home) home[B] = home[n] + (bestPos - m.position(n));
       }
@@ -1100,7 +1105,7 @@ struct CutEngine::Impl {
       return true;
     }
     // (Springs and masses of v and vn once the walls are in: touchEach below.)
-    if (tissue(tr.object)) physics::copyVertexState(m, vn, v);
+    if (tissue(tr.object)) physics::copyVertexState(handlesOf(m), vn, v);
     mark(tr, vn);
     std::vector<Vertex>& touched = extendTouched;
     touched.assign({v, vn, N});
@@ -1555,8 +1560,8 @@ struct CutEngine::Impl {
       if (home) home[o] += t * (home[n] + (depthN - m.position(n)) - home[o]);
       std::vector<Vertex> around{o};
       for (Edge e : m.edges(o)) around.push_back(m.otherVertex(e, o));
-      for (Edge e : m.edges(o)) physics::initEdge(m, e, p.tissue);
-      physics::redistributeMass(m, around, p.tissue);
+      for (Edge e : m.edges(o)) physics::initEdge(m, handlesOf(m), e, p.tissue);
+      physics::redistributeMass(m, handlesOf(m), around, p.tissue);
     }
     slidPending.emplace_back(obj, o);  // its boxes are refitted at the next sync
     // Its faces changed shape: the flips' thinness test must see them again.
@@ -1681,7 +1686,7 @@ struct CutEngine::Impl {
       Vertex nearest = loop.front();
       for (Vertex v : loop)
         if ((m.position(v) - c).squaredNorm() < (m.position(nearest) - c).squaredNorm()) nearest = v;
-      physics::copyVertexState(m, B, nearest);  // (springs and mass: touch below)
+      physics::copyVertexState(handlesOf(m), B, nearest);  // (springs and mass: touch below)
       auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
       if (home) home[B] = home[nearest] + (c - m.position(nearest));
     }

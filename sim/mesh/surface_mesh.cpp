@@ -21,15 +21,23 @@ std::string ValidationReport::message() const {
 
 SurfaceMesh::SurfaceMesh() { initBuiltins(); }
 
+namespace {
+std::uint64_t nextVersionId() {
+  static std::atomic<std::uint64_t> counter{0};
+  return counter.fetch_add(1, std::memory_order_relaxed) + 1;
+}
+}  // namespace
+
 // Layout ids are unique across all meshes of the process, so that a cache never takes
 // another mesh's (or an earlier content's) journal for its own.
 void SurfaceMesh::newLayout() {
-  static std::atomic<std::uint64_t> counter{0};
-  layoutVersion_ = counter.fetch_add(1, std::memory_order_relaxed) + 1;
+  layoutVersion_ = nextVersionId();
   journalV_.clear();
   journalE_.clear();
   journalF_.clear();
 }
+
+void SurfaceMesh::newPropertySet() { propertySetVersion_ = nextVersionId(); }
 
 void SurfaceMesh::initBuiltins() {
   vprops_ = PropertyContainer();
@@ -47,6 +55,7 @@ void SurfaceMesh::initBuiltins() {
   deletedVertices_ = deletedEdges_ = deletedFaces_ = 0;
   bindProperties();
   newLayout();
+  newPropertySet();
 }
 
 void SurfaceMesh::bindProperties() {
@@ -80,6 +89,7 @@ SurfaceMesh::SurfaceMesh(const SurfaceMesh& o)
       topologyVersion_(o.topologyVersion_) {
   bindProperties();
   newLayout();
+  newPropertySet();
 }
 
 SurfaceMesh& SurfaceMesh::operator=(const SurfaceMesh& o) {
@@ -100,6 +110,7 @@ SurfaceMesh::SurfaceMesh(SurfaceMesh&& o) noexcept
       deletedFaces_(o.deletedFaces_),
       topologyVersion_(o.topologyVersion_),
       layoutVersion_(o.layoutVersion_),
+      propertySetVersion_(o.propertySetVersion_),
       journalV_(std::move(o.journalV_)),
       journalE_(std::move(o.journalE_)),
       journalF_(std::move(o.journalF_)),
@@ -123,6 +134,7 @@ SurfaceMesh& SurfaceMesh::operator=(SurfaceMesh&& o) noexcept {
     bindProperties();
     o.initBuiltins();
     newLayout();
+    newPropertySet();
   }
   return *this;
 }
@@ -153,16 +165,19 @@ void SurfaceMesh::removeVertexProperty(const std::string& name) {
   if (name.rfind("v:point", 0) == 0 || name == "v:edges" || name == "v:deleted")
     throw PropertyError("cannot remove built-in property '" + name + "'");
   vprops_.remove(name);
+  newPropertySet();
 }
 void SurfaceMesh::removeEdgeProperty(const std::string& name) {
   if (name == "e:vertices" || name == "e:faces" || name == "e:deleted")
     throw PropertyError("cannot remove built-in property '" + name + "'");
   eprops_.remove(name);
+  newPropertySet();
 }
 void SurfaceMesh::removeFaceProperty(const std::string& name) {
   if (name == "f:vertices" || name == "f:edges" || name == "f:deleted")
     throw PropertyError("cannot remove built-in property '" + name + "'");
   fprops_.remove(name);
+  newPropertySet();
 }
 
 void SurfaceMesh::throwInvalid(Vertex v, const char* where) {

@@ -362,7 +362,9 @@ class SurfaceMesh {
   // ---- properties --------------------------------------------------------------
   template <class T>
   VertexProperty<T> addVertexProperty(const std::string& name, T def = T()) {
-    return VertexProperty<T>(vprops_.add<T>(name, std::move(def)));
+    VertexProperty<T> prop(vprops_.add<T>(name, std::move(def)));
+    newPropertySet();
+    return prop;
   }
   template <class T>
   VertexProperty<T> getVertexProperty(std::string_view name) const {
@@ -375,7 +377,9 @@ class SurfaceMesh {
   }
   template <class T>
   EdgeProperty<T> addEdgeProperty(const std::string& name, T def = T()) {
-    return EdgeProperty<T>(eprops_.add<T>(name, std::move(def)));
+    EdgeProperty<T> prop(eprops_.add<T>(name, std::move(def)));
+    newPropertySet();
+    return prop;
   }
   template <class T>
   EdgeProperty<T> getEdgeProperty(std::string_view name) const {
@@ -388,7 +392,9 @@ class SurfaceMesh {
   }
   template <class T>
   FaceProperty<T> addFaceProperty(const std::string& name, T def = T()) {
-    return FaceProperty<T>(fprops_.add<T>(name, std::move(def)));
+    FaceProperty<T> prop(fprops_.add<T>(name, std::move(def)));
+    newPropertySet();
+    return prop;
   }
   template <class T>
   FaceProperty<T> getFaceProperty(std::string_view name) const {
@@ -402,6 +408,12 @@ class SurfaceMesh {
   void removeVertexProperty(const std::string& name);
   void removeEdgeProperty(const std::string& name);
   void removeFaceProperty(const std::string& name);
+  // A new value whenever the mesh's set of property arrays may have changed: a property
+  // added or removed, or the arrays replaced (copy, assignment, clear, moved from).
+  // Views taken while it holds stay valid and name the same properties, so a caller that
+  // looks properties up once per edit can keep them across edits (unique across meshes;
+  // a mesh moved to a new object keeps its arrays and this value).
+  [[nodiscard]] std::uint64_t propertySetVersion() const { return propertySetVersion_; }
 
  private:
   void initBuiltins();
@@ -468,10 +480,12 @@ class SurfaceMesh {
   std::size_t deletedVertices_ = 0, deletedEdges_ = 0, deletedFaces_ = 0;
   std::uint64_t topologyVersion_ = 0;
   std::uint64_t layoutVersion_;
+  std::uint64_t propertySetVersion_;
   HandleLog<Vertex> journalV_;
   HandleLog<Edge> journalE_;
   HandleLog<Face> journalF_;
   void newLayout();
+  void newPropertySet();
 
   // Scratch buffers of the edits (never copied with the mesh, moved with it: their
   // capacity is what the edits need; only non-const edits use them), so that edits in

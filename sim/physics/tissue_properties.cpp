@@ -44,31 +44,13 @@ void setEdge(SurfaceMesh& m, Edge e, const TissueParams& p, const mesh::VertexPr
   k[e] = p.K / rest[e];
 }
 
-// The six properties, looked up once per hook instead of once per edge or vertex (a
-// lookup is a search by name: it was most of a hook's cost). Missing ones stay null;
-// each user requires what it reads, in the order the per-element code did.
-struct Props {
-  mesh::VertexProperty<Vec3> home, vel, force;
-  mesh::VertexProperty<double> mass;
-  mesh::EdgeProperty<double> rest, k;
-  // A hook's one-ring, kept for the hook's masses.
-  std::vector<Vertex> ring;
-  explicit Props(const SurfaceMesh& m)
-      : home(m.getVertexProperty<Vec3>(kHomeProp)),
-        vel(m.getVertexProperty<Vec3>(kVelocityProp)),
-        force(m.getVertexProperty<Vec3>(kForceProp)),
-        mass(m.getVertexProperty<double>(kMassProp)),
-        rest(m.getEdgeProperty<double>(kRestProp)),
-        k(m.getEdgeProperty<double>(kStiffnessProp)) {}
-};
-
 template <class P>
 P& need(P& prop, const char* name) {
   if (!prop) throw MissingPropertyError(name);
   return prop;
 }
 
-void initEdgeWith(SurfaceMesh& m, Edge e, const TissueParams& p, Props& q) {
+void initEdgeWith(SurfaceMesh& m, Edge e, const TissueParams& p, TissueHandles& q) {
   need(q.home, kHomeProp);
   need(q.rest, kRestProp);
   need(q.k, kStiffnessProp);
@@ -117,14 +99,14 @@ double homeAreaAround(const SurfaceMesh& m, const mesh::VertexProperty<Vec3>& ho
 }
 
 // lumpedMass with the properties at hand.
-double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, const Props& q) {
+double lumpedMassWith(const SurfaceMesh& m, Vertex v, const TissueParams& p, const TissueHandles& q) {
   const double floor = p.massFloorDt > 0.0 ? massFloor(p, springSum(m, v, q.k)) : 0.0;
   if (p.uniformMass) return std::max(p.vertexMass, floor);
   const double area = homeAreaAround(m, need(q.home, kHomeProp), v);
   return std::max({p.density * area / 3.0, p.minMass, floor});
 }
 
-void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p, Props& q) {
+void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p, TissueHandles& q) {
   auto& mass = need(q.mass, kMassProp);
   for (Vertex v : vertices)
     if (m.isValid(v)) mass[v] = lumpedMassWith(m, v, p, q);
@@ -132,7 +114,9 @@ void redistributeMassWith(SurfaceMesh& m, std::span<const Vertex> vertices, cons
 
 }  // namespace
 
-double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) { return lumpedMassWith(m, v, p, Props(m)); }
+double lumpedMass(const SurfaceMesh& m, Vertex v, const TissueParams& p) {
+  return lumpedMassWith(m, v, p, TissueHandles(m));
+}
 
 void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
   auto home = m.vertexProperty<Vec3>(kHomeProp, Vec3::Zero());
@@ -151,19 +135,27 @@ void attachTissueProperties(SurfaceMesh& m, const TissueParams& p) {
   recomputeMasses(m, p);
 }
 
-void redistributeMass(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
-  Props q(m);
-  redistributeMassWith(m, vertices, p, q);
+void redistributeMass(SurfaceMesh& m, TissueHandles& h, std::span<const Vertex> vertices, const TissueParams& p) {
+  redistributeMassWith(m, vertices, p, h);
 }
 
-void initEdgesAround(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
+void redistributeMass(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
+  TissueHandles q(m);
+  redistributeMass(m, q, vertices, p);
+}
+
+void initEdgesAround(SurfaceMesh& m, TissueHandles& q, std::span<const Vertex> vertices, const TissueParams& p) {
   // Edges first, then masses: a mass reads only its own vertex's springs (the floor)
   // and home areas, so this equals initEdge + redistributeMass vertex by vertex.
-  Props q(m);
   for (Vertex v : vertices)
     if (m.isValid(v))
       for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   redistributeMassWith(m, vertices, p, q);
+}
+
+void initEdgesAround(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
+  TissueHandles q(m);
+  initEdgesAround(m, q, vertices, p);
 }
 
 void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
@@ -185,8 +177,7 @@ void recomputeMasses(SurfaceMesh& m, const TissueParams& p) {
   for (Vertex v : m.vertices()) mass[v] = std::max({p.density * area[v.idx()] / 3.0, p.minMass, floor[v.idx()]});
 }
 
-void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, const TissueParams& p) {
-  Props q(m);
+void initVertexOnEdge(SurfaceMesh& m, TissueHandles& q, Vertex v, Vertex a, Vertex b, double t, const TissueParams& p) {
   auto& home = need(q.home, kHomeProp);
   auto& vel = need(q.vel, kVelocityProp);
   auto& force = need(q.force, kForceProp);
@@ -198,8 +189,13 @@ void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, co
   redistributeMassWith(m, q.ring, p, q);
 }
 
-void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, const Vec3& bary, const TissueParams& p) {
-  Props q(m);
+void initVertexOnEdge(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, double t, const TissueParams& p) {
+  TissueHandles q(m);
+  initVertexOnEdge(m, q, v, a, b, t, p);
+}
+
+void initVertexInFace(SurfaceMesh& m, TissueHandles& q, Vertex v, Vertex a, Vertex b, Vertex c, const Vec3& bary,
+                      const TissueParams& p) {
   auto& home = need(q.home, kHomeProp);
   auto& vel = need(q.vel, kVelocityProp);
   auto& force = need(q.force, kForceProp);
@@ -212,6 +208,11 @@ void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, co
   redistributeMassWith(m, q.ring, p, q);
 }
 
+void initVertexInFace(SurfaceMesh& m, Vertex v, Vertex a, Vertex b, Vertex c, const Vec3& bary, const TissueParams& p) {
+  TissueHandles q(m);
+  initVertexInFace(m, q, v, a, b, c, bary, p);
+}
+
 void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const TissueParams& p) {
   const auto vs = m.vertices(f);
   initVertexInFace(m, v, vs[0], vs[1], vs[2], bary, p);
@@ -219,7 +220,7 @@ void initVertexInFace(SurfaceMesh& m, Vertex v, Face f, const Vec3& bary, const 
 
 namespace {
 // Home and velocity of original, no force (every property checked before any is read).
-void copyStateWith(Props& q, Vertex v, Vertex original) {
+void copyStateWith(TissueHandles& q, Vertex v, Vertex original) {
   auto& home = need(q.home, kHomeProp);
   auto& vel = need(q.vel, kVelocityProp);
   auto& force = need(q.force, kForceProp);
@@ -229,22 +230,41 @@ void copyStateWith(Props& q, Vertex v, Vertex original) {
 }
 }  // namespace
 
-void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParams& p) {
-  Props q(m);
+void initVertexCopy(SurfaceMesh& m, TissueHandles& q, Vertex v, Vertex original, const TissueParams& p) {
   copyStateWith(q, v, original);
   for (Edge e : m.edges(v)) initEdgeWith(m, e, p, q);
   const Vertex both[2] = {v, original};
   redistributeMassWith(m, both, p, q);
 }
 
+void initVertexCopy(SurfaceMesh& m, Vertex v, Vertex original, const TissueParams& p) {
+  TissueHandles q(m);
+  initVertexCopy(m, q, v, original, p);
+}
+
+void copyVertexState(TissueHandles& h, Vertex v, Vertex original) { copyStateWith(h, v, original); }
+
 void copyVertexState(SurfaceMesh& m, Vertex v, Vertex original) {
-  Props q(m);
+  TissueHandles q(m);
   copyStateWith(q, v, original);
 }
 
+void initEdge(SurfaceMesh& m, TissueHandles& h, Edge e, const TissueParams& p) { initEdgeWith(m, e, p, h); }
+
 void initEdge(SurfaceMesh& m, Edge e, const TissueParams& p) {
-  Props q(m);
+  TissueHandles q(m);
   initEdgeWith(m, e, p, q);
+}
+
+void TissueHandles::lookUp(const SurfaceMesh& m) {
+  home = m.getVertexProperty<Vec3>(kHomeProp);
+  vel = m.getVertexProperty<Vec3>(kVelocityProp);
+  force = m.getVertexProperty<Vec3>(kForceProp);
+  mass = m.getVertexProperty<double>(kMassProp);
+  rest = m.getEdgeProperty<double>(kRestProp);
+  k = m.getEdgeProperty<double>(kStiffnessProp);
+  mesh_ = &m;
+  version_ = m.propertySetVersion();
 }
 
 }  // namespace ld::physics

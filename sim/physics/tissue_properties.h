@@ -25,8 +25,10 @@
 //    positions, times the areal density (or uniform). Every hook recomputes the
 //    masses of the touched vertex and its one-ring, so the total mass of the tissue
 //    is conserved by splits (the areas of the pieces add up to the parent's area).
+#include <cstdint>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -65,6 +67,31 @@ struct TissueParams {
   NewVertexHome newVertexHome = NewVertexHome::Interpolated;
 };
 
+// The six properties of one mesh, looked up by name once (a lookup searches the mesh's
+// property names: it was most of a hook's cost). A caller that runs many hooks (the
+// cutter, several per edit) keeps one and passes `of(m)` to the hooks' overloads below;
+// it looks the properties up again only when m is another mesh or m's property set has
+// changed (SurfaceMesh::propertySetVersion). Missing properties stay null: each hook
+// requires what it reads and throws MissingPropertyError, as without the handles.
+struct TissueHandles {
+  mesh::VertexProperty<Eigen::Vector3d> home, vel, force;
+  mesh::VertexProperty<double> mass;
+  mesh::EdgeProperty<double> rest, k;
+  std::vector<mesh::Vertex> ring;  // a hook's one-ring (scratch)
+
+  TissueHandles() = default;
+  explicit TissueHandles(const mesh::SurfaceMesh& m) { lookUp(m); }
+  TissueHandles& of(const mesh::SurfaceMesh& m) {
+    if (mesh_ != &m || version_ != m.propertySetVersion()) lookUp(m);
+    return *this;
+  }
+
+ private:
+  void lookUp(const mesh::SurfaceMesh& m);
+  const mesh::SurfaceMesh* mesh_ = nullptr;
+  std::uint64_t version_ = 0;
+};
+
 // True when all six properties exist on the mesh.
 [[nodiscard]] bool hasTissueProperties(const mesh::SurfaceMesh& m);
 
@@ -98,6 +125,20 @@ void redistributeMass(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertic
 void initEdgesAround(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertices, const TissueParams& p);
 // The same for every live vertex.
 void recomputeMasses(mesh::SurfaceMesh& m, const TissueParams& p);
+
+// The hooks with the properties at hand (h = handles.of(m)): the same results.
+void initVertexOnEdge(mesh::SurfaceMesh& m, TissueHandles& h, mesh::Vertex v, mesh::Vertex a, mesh::Vertex b, double t,
+                      const TissueParams& p);
+void initVertexInFace(mesh::SurfaceMesh& m, TissueHandles& h, mesh::Vertex v, mesh::Vertex a, mesh::Vertex b,
+                      mesh::Vertex c, const Eigen::Vector3d& bary, const TissueParams& p);
+void initVertexCopy(mesh::SurfaceMesh& m, TissueHandles& h, mesh::Vertex v, mesh::Vertex original,
+                    const TissueParams& p);
+void copyVertexState(TissueHandles& h, mesh::Vertex v, mesh::Vertex original);
+void initEdge(mesh::SurfaceMesh& m, TissueHandles& h, mesh::Edge e, const TissueParams& p);
+void redistributeMass(mesh::SurfaceMesh& m, TissueHandles& h, std::span<const mesh::Vertex> vertices,
+                      const TissueParams& p);
+void initEdgesAround(mesh::SurfaceMesh& m, TissueHandles& h, std::span<const mesh::Vertex> vertices,
+                     const TissueParams& p);
 
 // Lumped mass of one vertex from its faces' home areas (what redistributeMass sets).
 [[nodiscard]] double lumpedMass(const mesh::SurfaceMesh& m, mesh::Vertex v, const TissueParams& p);

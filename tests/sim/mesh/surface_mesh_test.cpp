@@ -390,6 +390,45 @@ TEST(SurfaceMesh, PropertiesAreFoundByTheirWholeName) {
   EXPECT_EQ(m.getVertexProperty<int>("v:abcdef2")[Vertex(0)], 1);
 }
 
+// propertySetVersion() changes exactly when kept property views may have gone stale:
+// on adding or removing a property and on replacing the arrays; edits, compaction and
+// a move to a new object keep it (and the views stay valid and right).
+TEST(SurfaceMesh, PropertySetVersionChangesWhenViewsMayGoStale) {
+  SurfaceMesh m = square();
+  auto w = m.addVertexProperty<int>("v:w", 7);
+  const auto v0 = m.propertySetVersion();
+  m.splitEdge(m.findEdge(Vertex(0), Vertex(1)), Point(0.5, 0, 0));
+  m.deleteFace(Face(0));
+  (void)m.garbageCollection();
+  ASSERT_TRUE(m.validate().ok());
+  EXPECT_EQ(m.propertySetVersion(), v0) << "edits and compaction keep the arrays";
+  EXPECT_EQ(w.vector().size(), m.verticesSize()) << "the kept view follows the compacted array";
+  (void)m.getVertexProperty<int>("v:w");
+  EXPECT_EQ(m.propertySetVersion(), v0) << "a lookup changes nothing";
+  m.addEdgeProperty<double>("e:x", 0.0);
+  const auto v1 = m.propertySetVersion();
+  EXPECT_NE(v1, v0) << "added";
+  m.removeEdgeProperty("e:x");
+  const auto v2 = m.propertySetVersion();
+  EXPECT_NE(v2, v1) << "removed";
+  SurfaceMesh copy = m;
+  EXPECT_NE(copy.propertySetVersion(), v2) << "a copy has its own arrays";
+  EXPECT_EQ(m.propertySetVersion(), v2) << "copying from m leaves m's";
+  const auto c0 = copy.propertySetVersion();
+  copy = m;
+  EXPECT_NE(copy.propertySetVersion(), c0) << "copy-assigned";
+  SurfaceMesh moved = std::move(m);
+  EXPECT_EQ(moved.propertySetVersion(), v2) << "moved to a new object with its arrays";
+  EXPECT_NE(m.propertySetVersion(), v2) << "moved from: new, empty arrays";  // NOLINT(bugprone-use-after-move)
+  EXPECT_EQ(w[Vertex(0)], 7) << "the view moved with its array";
+  const auto before = copy.propertySetVersion();
+  copy = std::move(moved);
+  EXPECT_NE(copy.propertySetVersion(), before) << "move-assigned: other arrays";
+  const auto c1 = copy.propertySetVersion();
+  copy.clear();
+  EXPECT_NE(copy.propertySetVersion(), c1) << "cleared";
+}
+
 // Thousands of random edits on closed and open meshes with validate() after each.
 TEST(SurfaceMesh, RandomEditsKeepInvariants) {
   std::mt19937 rng(20261122);

@@ -184,5 +184,69 @@ TEST(TissueProperties, CopyStateThenBatchHookEqualsInitVertexCopy) {
   EXPECT_THROW(copyVertexState(bare, mesh::Vertex(1u), mesh::Vertex(0u)), MissingPropertyError);
 }
 
+// One TissueHandles kept across many hooks and edits (as the cutter keeps it) gives bit
+// for bit what the hooks that look the properties up each time give; it follows its
+// mesh when a property is removed and added back (new arrays: the old views would
+// dangle), and a hook on a mesh without the properties still throws.
+TEST(TissueProperties, KeptHandlesEqualLookupsAndFollowPropertyChanges) {
+  auto base = makeGrid(6, 6, 2.0);
+  TissueParams p;
+  p.massFloorDt = 2e-3;
+  attachTissueProperties(base, p);
+  auto plain = base, kept = base;
+  TissueHandles handles;
+  // Splits the edge x-(x+1) and a face at x+7.
+  auto edit = [&](mesh::SurfaceMesh& m, bool useKept, std::uint32_t x) {
+    const mesh::Edge e = m.findEdge(mesh::Vertex(x), mesh::Vertex(x + 1));
+    ASSERT_TRUE(e.isValid());
+    const mesh::Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+    const mesh::Vertex v = m.splitEdge(e, 0.5 * (m.position(a) + m.position(b)));
+    const mesh::Face f = *m.faces(mesh::Vertex(x + 7)).begin();
+    const auto corners = m.vertices(f);
+    const Vec3 bary(0.2, 0.3, 0.5);
+    const mesh::Vertex w = m.splitFace(
+        f, bary[0] * m.position(corners[0]) + bary[1] * m.position(corners[1]) + bary[2] * m.position(corners[2]));
+    if (useKept) {
+      initVertexOnEdge(m, handles.of(m), v, a, b, 0.5, p);
+      initVertexInFace(m, handles.of(m), w, corners[0], corners[1], corners[2], bary, p);
+      const std::vector<mesh::Vertex> around = {a, b, w};
+      initEdgesAround(m, handles.of(m), around, p);
+    } else {
+      initVertexOnEdge(m, v, a, b, 0.5, p);
+      initVertexInFace(m, w, corners[0], corners[1], corners[2], bary, p);
+      const std::vector<mesh::Vertex> around = {a, b, w};
+      initEdgesAround(m, around, p);
+    }
+  };
+  auto expectSame = [&](const char* when) {
+    EXPECT_EQ(kept.getVertexProperty<Vec3>(kHomeProp).vector(), plain.getVertexProperty<Vec3>(kHomeProp).vector())
+        << when;
+    EXPECT_EQ(kept.getVertexProperty<double>(kMassProp).vector(), plain.getVertexProperty<double>(kMassProp).vector())
+        << when;
+    EXPECT_EQ(kept.getEdgeProperty<double>(kRestProp).vector(), plain.getEdgeProperty<double>(kRestProp).vector())
+        << when;
+    EXPECT_EQ(kept.getEdgeProperty<double>(kStiffnessProp).vector(),
+              plain.getEdgeProperty<double>(kStiffnessProp).vector())
+        << when;
+  };
+  edit(plain, false, 15);
+  edit(kept, true, 15);
+  expectSame("first edit");
+  // The masses as they were, the array replaced: kept handles must look it up again.
+  for (auto* m : {&plain, &kept}) {
+    const auto masses = m->getVertexProperty<double>(kMassProp).vector();
+    m->removeVertexProperty(kMassProp);
+    m->addVertexProperty<double>(kMassProp, 0.0).vector() = masses;
+  }
+  edit(plain, false, 8);
+  edit(kept, true, 8);
+  expectSame("after the mass array was replaced");
+  EXPECT_GT(kept.getVertexProperty<double>(kMassProp)[mesh::Vertex(15u)], 0.0);
+  kept.removeEdgeProperty(kRestProp);
+  EXPECT_THROW(initEdge(kept, handles.of(kept), *kept.edges().begin(), p), MissingPropertyError);
+  mesh::SurfaceMesh bare = makeGrid(2, 2, 1.0);
+  EXPECT_THROW(initEdge(bare, handles.of(bare), *bare.edges().begin(), p), MissingPropertyError);
+}
+
 }  // namespace
 }  // namespace ld::physics
