@@ -875,7 +875,7 @@ struct CutEngine::Impl {
       if (tissue(obj)) {
         // (Its springs and mass: the caller's touchEach, extend being the only caller.)
         physics::copyVertexState(handlesOf(m), B, n);
-        auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+        auto home = handlesOf(m).home;
         if (home) home[B] = home[n] + (bestPos - m.position(n));
       }
       return B;
@@ -900,8 +900,7 @@ struct CutEngine::Impl {
     mark(tr, N);
     // The blade's depth point under N in the rest frame: N's home plus the blade's offset
     // from N now (as fillQuad places a new bottom vertex's home); NaN without homes.
-    const auto home =
-        tissue(tr.object) ? m.getVertexProperty<Vec3>(physics::kHomeProp) : mesh::VertexProperty<Vec3>();
+    const auto home = tissue(tr.object) ? handlesOf(m).home : mesh::VertexProperty<Vec3>();
     const Vec3 restDepthN =
         home ? Vec3(home[N] + (depthN - m.position(N))) : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
     auto tipToN = [&] {
@@ -1554,7 +1553,7 @@ struct CutEngine::Impl {
     if (tissue(obj)) {
       // Its rest place moves as far toward a new bottom vertex's at depthN (N's, offset
       // as in the world, as fillQuad does).
-      auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+      auto home = handlesOf(m).home;
       const double full = (depthN - po).norm();
       const double t = full > 0.0 ? std::clamp((q - po).norm() / full, 0.0, 1.0) : 1.0;
       if (home) home[o] += t * (home[n] + (depthN - m.position(n)) - home[o]);
@@ -1687,7 +1686,7 @@ struct CutEngine::Impl {
       for (Vertex v : loop)
         if ((m.position(v) - c).squaredNorm() < (m.position(nearest) - c).squaredNorm()) nearest = v;
       physics::copyVertexState(handlesOf(m), B, nearest);  // (springs and mass: touch below)
-      auto home = m.getVertexProperty<Vec3>(physics::kHomeProp);
+      auto home = handlesOf(m).home;
       if (home) home[B] = home[nearest] + (c - m.position(nearest));
     }
     touch(obj, {B});
