@@ -267,4 +267,63 @@ void TissueHandles::lookUp(const SurfaceMesh& m) {
   version_ = m.propertySetVersion();
 }
 
+std::vector<Vertex> unsettledVertices(SurfaceMesh& m, std::span<const Vec3> keep) {
+  std::vector<Vertex> out;
+  if (!m.getVertexProperty<std::uint8_t>(kSettledProp)) {
+    auto settled = m.vertexProperty<std::uint8_t>(kSettledProp, 0);
+    for (Vertex v : m.vertices()) settled[v] = 1;
+    return out;
+  }
+  // A byte scan (most are settled; it runs after every cutting sample, 50k vertices
+  // at 100k triangles).
+  const std::vector<std::uint8_t>& flags = m.getVertexProperty<std::uint8_t>(kSettledProp).vector();
+  for (auto it = std::find(flags.begin(), flags.end(), 0); it != flags.end(); it = std::find(it + 1, flags.end(), 0)) {
+    const Vertex v(static_cast<std::uint32_t>(it - flags.begin()));
+    if (!m.isValid(v)) continue;
+    const bool kept =
+        std::any_of(keep.begin(), keep.end(), [&](const Vec3& q) { return (q - m.position(v)).squaredNorm() < 1e-12; });
+    if (!kept) out.push_back(v);
+  }
+  return out;
+}
+
+void settleVertices(SurfaceMesh& m, std::span<const Vertex> vertices, const TissueParams& p) {
+  if (vertices.empty()) return;
+  auto settled = m.vertexProperty<std::uint8_t>(kSettledProp, 0);
+  TissueHandles h(m);  // (after adding the flag: adding a property may move the views)
+  need(h.home, kHomeProp);
+  need(h.vel, kVelocityProp);
+  need(h.rest, kRestProp);
+  need(h.k, kStiffnessProp);
+  for (Vertex v : vertices) settled[v] = 0;  // (the set, for the velocities below)
+  for (int sweep = 0; sweep < p.settleSweeps; ++sweep)
+    for (Vertex v : vertices) {
+      // Balance with the spring directions frozen at the current ones: each spring pulls
+      // v toward the point at its rest length from the far end.
+      const Vec3 x = m.position(v);
+      Vec3 num = p.homeK * h.home[v];
+      double den = p.homeK;
+      for (Edge e : m.edges(v)) {
+        const Vec3& y = m.position(m.otherVertex(e, v));
+        const double l = (x - y).norm();
+        if (!(l > 0.0) || !(h.k[e] > 0.0)) continue;
+        num += h.k[e] * (y + (h.rest[e] / l) * (x - y));
+        den += h.k[e];
+      }
+      if (den > 0.0 && num.allFinite()) m.position(v) = num / den;
+    }
+  for (Vertex v : vertices) {
+    Vec3 sum = Vec3::Zero();
+    int n = 0;
+    for (Edge e : m.edges(v)) {
+      const Vertex w = m.otherVertex(e, v);
+      if (!settled[w]) continue;
+      sum += h.vel[w];
+      ++n;
+    }
+    h.vel[v] = n > 0 ? Vec3(sum / n) : Vec3::Zero();
+  }
+  for (Vertex v : vertices) settled[v] = 1;
+}
+
 }  // namespace ld::physics

@@ -65,6 +65,9 @@ struct TissueParams {
   double massFloorDt = 0.0;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // [mm/s²]; off by default
   NewVertexHome newVertexHome = NewVertexHome::Interpolated;
+  // Gauss-Seidel passes of settleVertices over what a cut adds; 0: the vertices start
+  // where the cutter put them (the thesis).
+  int settleSweeps = 10;
 };
 
 // The six properties of one mesh, looked up by name once (a lookup searches the mesh's
@@ -142,5 +145,28 @@ void initEdgesAround(mesh::SurfaceMesh& m, TissueHandles& h, std::span<const mes
 
 // Lumped mass of one vertex from its faces' home areas (what redistributeMass sets).
 [[nodiscard]] double lumpedMass(const mesh::SurfaceMesh& m, mesh::Vertex v, const TissueParams& p);
+
+// ---- settling what a cut adds ----------------------------------------------------
+// A cut puts its vertices on the blade, where one side of their springs has just been
+// cut away: stepped from there, a light vertex springs toward its balance and, with a
+// tissue's light velocity damping, rings for a second or more (seen: a lip flapping a
+// millimetre above the surface at the end of a cut, the cut recorded at rest wavering
+// across the drawn line). Settling moves them to their balance at once, as in an
+// overdamped tissue: the wound opens without ringing.
+inline constexpr const char* kSettledProp = "v:settled";  // std::uint8_t, 1 once settled
+
+// The live vertices not settled yet, leaving out any within 1e-6 mm of a point of
+// `keep` (a cut's tips on the blade, which the cutter places; they are settled once
+// the cut has moved on). A mesh without the property gets it, every vertex settled
+// (nothing to return).
+[[nodiscard]] std::vector<mesh::Vertex> unsettledVertices(mesh::SurfaceMesh& m,
+                                                          std::span<const Eigen::Vector3d> keep = {});
+
+// Moves each vertex of `vertices` to where its mesh springs and home spring balance,
+// every other vertex held (p.settleSweeps Gauss-Seidel passes over them), gives it the
+// mean velocity of its neighbours outside the set (zero without any) and marks it
+// settled. With settleSweeps = 0 the vertices are only marked. Requires the tissue
+// properties (MissingPropertyError).
+void settleVertices(mesh::SurfaceMesh& m, std::span<const mesh::Vertex> vertices, const TissueParams& p);
 
 }  // namespace ld::physics
