@@ -171,6 +171,7 @@ class TissueMotion {
   TissueMotion(cutting::CutEngine& engine, const physics::TissueParams& tp, const RunOptions& opt)
       : engine_(engine), tp_(tp), opt_(opt), still_(opt.physics && opt.holdUnderBlade) {
     params_.tissue = tp;
+    if (opt.physics && !still_) settleNew(nullptr);  // (marks the model's vertices settled)
     if (still_)
       for (auto& o : engine_.objects()) {
         mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
@@ -180,9 +181,13 @@ class TissueMotion {
       }
   }
 
-  // Vertices added since (by cuts) take their neighbours' mean displacement.
-  void followEdits() {
-    if (!still_) return;
+  // After a cut. Held still: vertices added since take their neighbours' mean
+  // displacement. Moving: they settle (settleNew).
+  void followEdits(const std::vector<cutting::PreviewSegment>* preview = nullptr) {
+    if (!still_) {
+      if (opt_.physics) settleNew(preview);
+      return;
+    }
     for (const auto& o : engine_.objects()) {
       mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
       auto u = m.vertexProperty<Eigen::Vector3d>(kDisplacementProp, Eigen::Vector3d::Zero());
@@ -211,6 +216,21 @@ class TissueMotion {
         fresh = std::move(left);
       }
       for (mesh::Vertex v : fresh) known[v] = 1;  // isolated: not displaced
+    }
+  }
+
+  // Moving tissue: what the cuts added settles where its springs balance
+  // (physics::settleVertices), except the tips on the blade.
+  void settleNew(const std::vector<cutting::PreviewSegment>* preview) {
+    std::vector<Eigen::Vector3d> tips;
+    for (const auto& o : engine_.objects()) {
+      mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
+      if (!physics::hasTissueProperties(m)) continue;
+      tips.clear();
+      if (preview)
+        for (const auto& pv : *preview)
+          if (pv.object == o.id) tips.push_back(pv.from);
+      physics::settleVertices(m, physics::unsettledVertices(m, tips), tp_);
     }
   }
 
@@ -473,9 +493,9 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
-  auto followEdits = [&] {
+  auto followEdits = [&](const std::vector<cutting::PreviewSegment>* preview = nullptr) {
     r.pathReembedded += drawn.followEdits(tissue());
-    motion.followEdits();
+    motion.followEdits(preview);
   };
   auto feedCut = [&](double t) {
     const Polyline& p = recorder.path();
@@ -602,9 +622,35 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     lastRaw = point;
   };
 
+  // How far the tissue has carried the drawn path at the point nearest `at` (as
+  // authored): linear between the two ends of the nearest segment.
+  auto pathShift = [&](const Eigen::Vector3d& at) -> Eigen::Vector3d {
+    const Polyline now = drawn.drawnPositions(tissue());
+    const Polyline& was = task.path;
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    if (now.size() != was.size() || was.empty()) return shift;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < was.size(); ++i) {
+      const bool segment = !was[i].stop && i + 1 < was.size();
+      const Eigen::Vector3d a = was[i].p, ab = segment ? Eigen::Vector3d(was[i + 1].p - a) : Eigen::Vector3d::Zero();
+      const double l2 = ab.squaredNorm();
+      const double u = l2 > 0.0 ? std::clamp((at - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+      const double d2 = (a + u * ab - at).squaredNorm();
+      if (d2 < best) {
+        best = d2;
+        shift = (1.0 - u) * (now[i].p - a);
+        if (segment) shift += u * (now[i + 1].p - was[i + 1].p);
+      }
+    }
+    return shift;
+  };
+
   if (!tr.samples.empty()) live.start(tr.samples.front().t);
-  for (const devices::PoseSample& s : tr.samples) {
+  for (const devices::PoseSample& sample : tr.samples) {
     ++r.samples;
+    devices::PoseSample s = sample;
+    if (opt.followMovingPath && rest && s.tool != Tool::Grasper)
+      s.pose.tip += pathShift(workingPoint(s.tool, s.pose, engine.params().tool));
     const int hand = s.hand == Hand::Left ? 0 : 1;
     HandState& hs = hands[hand];
     if (opt.physics && s.t > physT) {
@@ -659,7 +705,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
       endCut(s.t);
     }
     const cutting::StepResult step = engine.step(s.hand, s.tool, s.pose);
-    if (step.topologyChanged) followEdits();
+    if (step.topologyChanged) followEdits(&step.preview);
     const Eigen::Vector3d ref = workingPoint(s.tool, s.pose, engine.params().tool);
     // A blade whose cut goes on (the engine reports a cut point) is in the tissue even
     // where no surface meets its edges: on a moving tissue the cut's lips retract from

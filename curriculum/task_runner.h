@@ -45,9 +45,17 @@ struct RunOptions {
   // trainee), and the force still feels the cut. `task run` uses this by default.
   bool holdUnderBlade = false;
   // Physics on (moving): a crossing of the drawn path stands once the cut recorded at
-  // rest is this far beyond the line (mm; README: the tissue's ringing and the tips'
-  // snapping move it by up to ~0.2 mm either way).
-  double crossingBandMm = 0.25;
+  // rest is this far beyond the line (mm). The cut snaps to the mesh's vertices and
+  // edges (CutParams::snapFraction of an edge: up to ~0.25 mm on the bundled models, the
+  // still cut's own largest distance from the blade's path) and the tissue moving
+  // under the blade adds to that (README).
+  double crossingBandMm = 0.4;
+  // Physics on (moving): the cutting hand follows the drawn path where the tissue has
+  // carried it; each of its samples is shifted by the path's displacement at the point
+  // nearest the working point as authored. For scripted attempts, which are authored
+  // on the still tissue: a trainee watching the screen follows the line as it moves.
+  // Off for recorded trajectories (they are what the hand did).
+  bool followMovingPath = false;
   double physicsDt = 1e-3;         // s, the longest step (the workstation's 1 kHz loop)
   double graspStiffness = 1000.0;  // mN/mm, penalty spring per held vertex
   double graspRadius = 1.5;        // mm: vertices this near the grasp point are held

@@ -11,6 +11,7 @@
 #include "curriculum/scripted_trainee.h"
 #include "curriculum/task_runner.h"
 #include "sim/io/mesh_io.h"
+#include "sim/physics/spring_kernel.h"
 #include "tests/support/test_support.h"
 
 namespace ld::curriculum {
@@ -256,28 +257,54 @@ RunResult movingRun(const std::string& id, const devices::Trajectory& tr) {
   const Loaded& l = load(id);
   RunOptions o;
   o.physics = true;  // moving: the cut recorded on the tissue at rest
+  o.followMovingPath = true;  // a trainee follows the line where the tissue took it
   return runTask(l.task, l.mesh, tr, o);
 }
 
-TEST(Validity, ExpertOnMovingTissueIsNotChargedForTheSimulationsArtefacts) {
-  // The expert (the CLI's script: seed 1, 1 kHz) on the curves with the tissue moving
-  // under the blade. Before: slab-gentle-curve 2 path breaks (the cut recorded at rest
-  // wavering 0.07 mm across the line) and a cut distance of 1.11 mm (the hook's foot's
-  // cut recorded after the blade's cut had ended); slab-s-curve 12 path breaks.
-  for (const char* id : {"slab-gentle-curve", "slab-s-curve"}) {
-    SCOPED_TRACE(id);
-    const Loaded& l = load(id);
-    const RunResult r = movingRun(id, scriptedAttempt(l.task, l.mesh, traineeProfile(0, 1), 1000));
-    ASSERT_TRUE(r.physics.on);
-    ASSERT_FALSE(r.physics.heldStill);
-    EXPECT_EQ(r.metrics.pathBreaks, 0);
-    EXPECT_EQ(pieces(r.drawn).size(), 1u);
-    EXPECT_LT(r.metrics.cutDistanceMaxMm, 0.6);
-    // Contact breaks are not asserted: after the cut has ended, a lip curled up above
-    // the surface can still meet the rising hook for a few ms (one break on one of the
-    // two tasks, which one depending on the physics' last bits; README: what is left).
+// The expert (the CLI's script, 1 kHz) on every bundled task with the tissue moving
+// under the blade, on three seeds and with the physics' scalar and vector builds (they
+// agree to rounding, and the moving tissue turns last bits into different cuts: one
+// machine passing is no evidence). Before the cut's new vertices settled
+// (physics::settleVertices) and the scripted hand followed the moving line, 21 of
+// these runs (54 with the AVX2 build too) had a spurious path or contact break and
+// one failed; the test then asserted two tasks on seed 1 and failed on a machine
+// whose vector build differs from the one it was written on.
+class ExpertOnMovingTissue : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(ExpertOnMovingTissue, IsNotChargedForTheSimulationsArtefacts) {
+  const std::string id = GetParam();
+  const Loaded& l = load(id);
+  std::vector<physics::detail::Kernel> kernels{physics::detail::Kernel::Scalar};
+  if (physics::detail::activeKernel() != physics::detail::Kernel::Scalar)
+    kernels.push_back(physics::detail::activeKernel());
+  struct Restore {
+    ~Restore() { physics::detail::forceKernel(std::nullopt); }
+  } restore;
+  for (const auto kernel : kernels) {
+    ASSERT_TRUE(physics::detail::forceKernel(kernel));
+    for (unsigned seed : {1u, 2u, 3u}) {
+      SCOPED_TRACE(std::string(physics::detail::kernelName(kernel)) + " seed " + std::to_string(seed));
+      const RunResult r = movingRun(id, scriptedAttempt(l.task, l.mesh, traineeProfile(0, seed), 1000));
+      ASSERT_TRUE(r.physics.on);
+      ASSERT_FALSE(r.physics.heldStill);
+      EXPECT_EQ(r.metrics.pathBreaks, 0);
+      EXPECT_EQ(pieces(r.drawn).size(), 1u);
+      EXPECT_EQ(r.metrics.contactBreaks, 0);
+      EXPECT_GE(r.metrics.bandFraction, 0.98);
+      EXPECT_LT(r.metrics.cutDistanceMaxMm, 1.0);
+      EXPECT_TRUE(r.assessment.passed) << (r.assessment.failures.empty() ? "" : r.assessment.failures[0]);
+    }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Validity, ExpertOnMovingTissue,
+                         ::testing::Values("slab-straight-line", "slab-gentle-curve", "slab-s-curve",
+                                           "slab-circle-cutout", "organ-curve", "organ-fold"),
+                         [](const auto& p) {
+                           std::string n = p.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
 
 TEST(Validity, RealBreaksStillCountOnMovingTissue) {
   const Loaded& l = load("slab-gentle-curve");
