@@ -60,7 +60,10 @@ int cut(const Args& args) {
   // leaves are refitted only once it moved farther than this) instead of a full
   // refit per step. Extension: --collision-margin MM (0 = full refits).
   params.collisionMargin = physicsOn ? args.getDouble("collision-margin", 0.25) : 0.0;
-  if (physicsOn) physics::attachTissueProperties(m, tissue);
+  if (physicsOn) {
+    physics::attachTissueProperties(m, tissue);
+    (void)physics::unsettledVertices(m);  // marks the model's vertices settled
+  }
   const std::size_t facesBefore = m.nFaces();
   cutting::CutEngine engine(params);
   engine.addObject(std::move(m));
@@ -108,13 +111,36 @@ int cut(const Args& args) {
     }
   };
 
+  // What a cut adds settles where its springs balance (physics::settleVertices), except
+  // the tips on the blade; the collision tree hears of the moves.
+  auto settleCut = [&](const std::vector<cutting::PreviewSegment>& preview) {
+    std::vector<Eigen::Vector3d> tips;
+    std::vector<std::uint32_t> moved;
+    for (std::size_t i = 0; i < engine.objects().size(); ++i) {
+      const int id = engine.objects()[i].id;
+      tips.clear();
+      for (const auto& pv : preview)
+        if (pv.object == id) tips.push_back(pv.from);
+      mesh::SurfaceMesh& mesh = engine.meshToMove(id);
+      if (!physics::hasTissueProperties(mesh)) continue;
+      const std::vector<mesh::Vertex> fresh = physics::unsettledVertices(mesh, tips);
+      if (fresh.empty()) continue;
+      physics::settleVertices(mesh, fresh, tissue);
+      moved.clear();
+      for (mesh::Vertex v : fresh) moved.push_back(static_cast<std::uint32_t>(v.idx()));
+      engine.verticesMoved(id, moved);
+    }
+  };
+
   double lastT = tr.samples.empty() ? 0.0 : tr.samples.front().t;
   for (const auto& s : tr.samples) {
     stepPhysics(s.t - lastT);
     lastT = s.t;
-    engine.step(s.hand, s.tool, s.pose);
+    const cutting::StepResult r = engine.step(s.hand, s.tool, s.pose);
+    if (physicsOn && r.topologyChanged) settleCut(r.preview);
   }
   engine.finish();
+  if (physicsOn) settleCut({});
 
   const auto& st = engine.stats();
   bool manifold = true, closed = true, nan = false;
