@@ -171,7 +171,7 @@ class TissueMotion {
   TissueMotion(cutting::CutEngine& engine, const physics::TissueParams& tp, const RunOptions& opt)
       : engine_(engine), tp_(tp), opt_(opt), still_(opt.physics && opt.holdUnderBlade) {
     params_.tissue = tp;
-    if (opt.physics && !still_) settleNew(nullptr);  // (marks the model's vertices settled)
+    settleNew(nullptr);  // (marks the model's vertices settled)
     if (still_)
       for (auto& o : engine_.objects()) {
         mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
@@ -181,13 +181,9 @@ class TissueMotion {
       }
   }
 
-  // After a cut. Held still: vertices added since take their neighbours' mean
-  // displacement. Moving: they settle (settleNew).
-  void followEdits(const std::vector<cutting::PreviewSegment>* preview = nullptr) {
-    if (!still_) {
-      if (opt_.physics) settleNew(preview);
-      return;
-    }
+  // Held still: vertices added since (by cuts) take their neighbours' mean displacement.
+  void followEdits() {
+    if (!still_) return;
     for (const auto& o : engine_.objects()) {
       mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
       auto u = m.vertexProperty<Eigen::Vector3d>(kDisplacementProp, Eigen::Vector3d::Zero());
@@ -219,9 +215,11 @@ class TissueMotion {
     }
   }
 
-  // Moving tissue: what the cuts added settles where its springs balance
-  // (physics::settleVertices), except the tips on the blade.
+  // Moving tissue, after every sample: what the cuts added settles where its springs
+  // balance (physics::settleVertices), except next to the tips on the blade (those
+  // settle once the blade has moved on or left).
   void settleNew(const std::vector<cutting::PreviewSegment>* preview) {
+    if (!opt_.physics || still_) return;
     std::vector<Eigen::Vector3d> tips;
     for (const auto& o : engine_.objects()) {
       mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
@@ -493,9 +491,9 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
   HandState hands[2];
   const double kGrasp = task.tissue.homeStiffness * 1e-3;  // N per mm of stretch (a spring proxy)
 
-  auto followEdits = [&](const std::vector<cutting::PreviewSegment>* preview = nullptr) {
+  auto followEdits = [&] {
     r.pathReembedded += drawn.followEdits(tissue());
-    motion.followEdits(preview);
+    motion.followEdits();
   };
   auto feedCut = [&](double t) {
     const Polyline& p = recorder.path();
@@ -705,7 +703,8 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
       endCut(s.t);
     }
     const cutting::StepResult step = engine.step(s.hand, s.tool, s.pose);
-    if (step.topologyChanged) followEdits(&step.preview);
+    if (step.topologyChanged) followEdits();
+    motion.settleNew(&step.preview);
     const Eigen::Vector3d ref = workingPoint(s.tool, s.pose, engine.params().tool);
     // A blade whose cut goes on (the engine reports a cut point) is in the tissue even
     // where no surface meets its edges: on a moving tissue the cut's lips retract from

@@ -111,8 +111,9 @@ int cut(const Args& args) {
     }
   };
 
-  // What a cut adds settles where its springs balance (physics::settleVertices), except
-  // the tips on the blade; the collision tree hears of the moves.
+  // After every sample, what the cut added settles where its springs balance
+  // (physics::settleVertices), except next to the tips on the blade; the collision tree
+  // hears of the moves.
   auto settleCut = [&](const std::vector<cutting::PreviewSegment>& preview) {
     std::vector<Eigen::Vector3d> tips;
     std::vector<std::uint32_t> moved;
@@ -137,7 +138,7 @@ int cut(const Args& args) {
     stepPhysics(s.t - lastT);
     lastT = s.t;
     const cutting::StepResult r = engine.step(s.hand, s.tool, s.pose);
-    if (physicsOn && r.topologyChanged) settleCut(r.preview);
+    if (physicsOn) settleCut(r.preview);
   }
   engine.finish();
   if (physicsOn) settleCut({});

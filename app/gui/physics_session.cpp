@@ -52,7 +52,6 @@ physics::Params PhysicsSession::defaultParams() {
 
 PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh, Options options) : params_(defaultParams()), options_(options) {
   if (!physics::hasTissueProperties(mesh)) physics::attachTissueProperties(mesh, params_.tissue);
-  (void)physics::unsettledVertices(mesh);  // marks the model's vertices settled
 #ifdef LD_GUI_HAVE_CUTTING
   cutting::CutParams cp;
   cp.tissue = params_.tissue;
@@ -78,7 +77,7 @@ PhysicsSession::~PhysicsSession() {
 
 mesh::SurfaceMesh& PhysicsSession::meshOf(int id) {
 #ifdef LD_GUI_HAVE_CUTTING
-  // Positions change only in stepAll/settle/afterCut, which tell the engine what moved.
+  // Positions change only in stepAll/settle, which tell the engine what moved.
   return engine_->meshToMove(id);
 #else
   (void)id;
@@ -508,21 +507,6 @@ void PhysicsSession::afterCut(const cutting::StepResult& r) {
   if (r.topologyChanged)
     for (auto& b : bodies_) b.dynamics.energyBudget = std::numeric_limits<double>::quiet_NaN();
   addBodies();
-  // What the cut added settles where its springs balance, except the tips on the blade
-  // (physics::settleVertices: without it the new lips ring under the light damping).
-  if (r.topologyChanged)
-    for (const Body& b : bodies_) {
-      std::vector<Eigen::Vector3d> tips;
-      for (const auto& p : r.preview)
-        if (p.object == b.id) tips.push_back(p.from);
-      mesh::SurfaceMesh& m = meshOf(b.id);
-      const std::vector<mesh::Vertex> fresh = physics::unsettledVertices(m, tips);
-      if (fresh.empty()) continue;
-      physics::settleVertices(m, fresh, params_.tissue);
-      std::vector<std::uint32_t> moved;
-      for (mesh::Vertex v : fresh) moved.push_back(static_cast<std::uint32_t>(v.idx()));
-      engine_->verticesMoved(b.id, moved);
-    }
 #else
   (void)r;
 #endif

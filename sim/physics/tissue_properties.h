@@ -157,13 +157,15 @@ inline constexpr const char* kSettledProp = "v:settled";  // std::uint8_t, 1 onc
 
 // The live vertices not settled yet, leaving out any within 1e-6 mm of a point of
 // `keep` (a cut's tips on the blade, which the cutter places; they are settled once
-// the cut has moved on). A mesh without the property gets it, every vertex settled
-// (nothing to return).
+// the cut has moved on or ended). A mesh without the property gets it, every vertex
+// settled (nothing to return).
 [[nodiscard]] std::vector<mesh::Vertex> unsettledVertices(mesh::SurfaceMesh& m,
                                                           std::span<const Eigen::Vector3d> keep = {});
 
-// Moves each vertex of `vertices` to where its mesh springs and home spring balance,
-// every other vertex held (p.settleSweeps Gauss-Seidel passes over them), gives it the
+// Moves each vertex of `vertices` toward where its mesh springs and home spring
+// balance, every other vertex held (p.settleSweeps Gauss-Seidel passes over them; a
+// move that would turn one of its faces by more than 60° is halved until none does: a
+// balance past a neighbour folds the surface), gives it the
 // mean velocity of its neighbours outside the set (zero without any) and marks it
 // settled. With settleSweeps = 0 the vertices are only marked. Requires the tissue
 // properties (MissingPropertyError).
