@@ -216,8 +216,8 @@ class TissueMotion {
   }
 
   // Moving tissue, after every sample: what the cuts added settles where its springs
-  // balance (physics::settleVertices), except next to the tips on the blade (those
-  // settle once the blade has moved on or left).
+  // balance (physics::settleVertices), except the tips on the blade (they settle once
+  // the blade has moved on or left).
   void settleNew(const std::vector<cutting::PreviewSegment>* preview) {
     if (!opt_.physics || still_) return;
     std::vector<Eigen::Vector3d> tips;

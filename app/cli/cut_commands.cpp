@@ -112,7 +112,7 @@ int cut(const Args& args) {
   };
 
   // After every sample, what the cut added settles where its springs balance
-  // (physics::settleVertices), except next to the tips on the blade; the collision tree
+  // (physics::settleVertices), except the tips on the blade; the collision tree
   // hears of the moves.
   auto settleCut = [&](const std::vector<cutting::PreviewSegment>& preview) {
     std::vector<Eigen::Vector3d> tips;
