@@ -171,7 +171,7 @@ class TissueMotion {
   TissueMotion(cutting::CutEngine& engine, const physics::TissueParams& tp, const RunOptions& opt)
       : engine_(engine), tp_(tp), opt_(opt), still_(opt.physics && opt.holdUnderBlade) {
     params_.tissue = tp;
-    settleNew(nullptr);  // (marks the model's vertices settled)
+    settleNew();  // (marks the model's vertices settled)
     if (still_)
       for (auto& o : engine_.objects()) {
         mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
@@ -216,20 +216,9 @@ class TissueMotion {
   }
 
   // Moving tissue, after every sample: what the cuts added settles where its springs
-  // balance (physics::settleVertices), except the tips on the blade (they settle once
-  // the blade has moved on or left).
-  void settleNew(const std::vector<cutting::PreviewSegment>* preview) {
-    if (!opt_.physics || still_) return;
-    std::vector<Eigen::Vector3d> tips;
-    for (const auto& o : engine_.objects()) {
-      mesh::SurfaceMesh& m = engine_.object(o.id).mesh;
-      if (!physics::hasTissueProperties(m)) continue;
-      tips.clear();
-      if (preview)
-        for (const auto& pv : *preview)
-          if (pv.object == o.id) tips.push_back(pv.from);
-      physics::settleVertices(m, physics::unsettledVertices(m, tips), tp_);
-    }
+  // balance, except the tips on the blade (they settle once it has moved on or left).
+  void settleNew(std::span<const cutting::PreviewSegment> preview = {}) {
+    if (opt_.physics && !still_) engine_.settleAdded(preview);
   }
 
   // The farthest the simulated tissue was from the still one after any step [mm].
@@ -704,7 +693,7 @@ RunResult runTask(const Task& task, const mesh::SurfaceMesh& m, const devices::T
     }
     const cutting::StepResult step = engine.step(s.hand, s.tool, s.pose);
     if (step.topologyChanged) followEdits();
-    motion.settleNew(&step.preview);
+    motion.settleNew(step.preview);
     const Eigen::Vector3d ref = workingPoint(s.tool, s.pose, engine.params().tool);
     // A blade whose cut goes on (the engine reports a cut point) is in the tissue even
     // where no surface meets its edges: on a moving tissue the cut's lips retract from

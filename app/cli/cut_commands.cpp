@@ -60,13 +60,11 @@ int cut(const Args& args) {
   // leaves are refitted only once it moved farther than this) instead of a full
   // refit per step. Extension: --collision-margin MM (0 = full refits).
   params.collisionMargin = physicsOn ? args.getDouble("collision-margin", 0.25) : 0.0;
-  if (physicsOn) {
-    physics::attachTissueProperties(m, tissue);
-    (void)physics::unsettledVertices(m);  // marks the model's vertices settled
-  }
+  if (physicsOn) physics::attachTissueProperties(m, tissue);
   const std::size_t facesBefore = m.nFaces();
   cutting::CutEngine engine(params);
   engine.addObject(std::move(m));
+  if (physicsOn) engine.settleAdded();  // marks the model's vertices settled
 
   // Physics (--physics on): one Dynamics per object, stepping the engine's own mesh in
   // place (the cutter owns the topology, physics moves the vertices; object() tells the
@@ -111,37 +109,15 @@ int cut(const Args& args) {
     }
   };
 
-  // After every sample, what the cut added settles where its springs balance
-  // (physics::settleVertices), except the tips on the blade; the collision tree
-  // hears of the moves.
-  auto settleCut = [&](const std::vector<cutting::PreviewSegment>& preview) {
-    std::vector<Eigen::Vector3d> tips;
-    std::vector<std::uint32_t> moved;
-    for (std::size_t i = 0; i < engine.objects().size(); ++i) {
-      const int id = engine.objects()[i].id;
-      tips.clear();
-      for (const auto& pv : preview)
-        if (pv.object == id) tips.push_back(pv.from);
-      mesh::SurfaceMesh& mesh = engine.meshToMove(id);
-      if (!physics::hasTissueProperties(mesh)) continue;
-      const std::vector<mesh::Vertex> fresh = physics::unsettledVertices(mesh, tips);
-      if (fresh.empty()) continue;
-      physics::settleVertices(mesh, fresh, tissue);
-      moved.clear();
-      for (mesh::Vertex v : fresh) moved.push_back(static_cast<std::uint32_t>(v.idx()));
-      engine.verticesMoved(id, moved);
-    }
-  };
-
   double lastT = tr.samples.empty() ? 0.0 : tr.samples.front().t;
   for (const auto& s : tr.samples) {
     stepPhysics(s.t - lastT);
     lastT = s.t;
     const cutting::StepResult r = engine.step(s.hand, s.tool, s.pose);
-    if (physicsOn) settleCut(r.preview);
+    if (physicsOn) engine.settleAdded(r.preview);  // what the cut added, except the tips
   }
   engine.finish();
-  if (physicsOn) settleCut({});
+  if (physicsOn) engine.settleAdded();
 
   const auto& st = engine.stats();
   bool manifold = true, closed = true, nan = false;

@@ -3841,6 +3841,25 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
 
 void CutEngine::verticesMoved(int id) { (void)object(id); }
 
+void CutEngine::settleAdded(std::span<const PreviewSegment> preview) {
+  std::vector<Vec3> tips;
+  std::vector<std::uint32_t> moved;
+  for (std::size_t i = 0; i < objects().size(); ++i) {
+    const int id = objects()[i].id;
+    mesh::SurfaceMesh& m = meshToMove(id);
+    if (!physics::hasTissueProperties(m)) continue;
+    tips.clear();
+    for (const auto& pv : preview)
+      if (pv.object == id) tips.push_back(pv.from);
+    const std::vector<Vertex> fresh = physics::unsettledVertices(m, tips);
+    if (fresh.empty()) continue;
+    physics::settleVertices(m, fresh, params().tissue);
+    moved.clear();
+    for (Vertex v : fresh) moved.push_back(static_cast<std::uint32_t>(v.idx()));
+    verticesMoved(id, moved);
+  }
+}
+
 void CutEngine::verticesMovedWithin(int id, double maxMove) {
   const std::size_t k = impl_->indexOfKnown(id);
   if (!(maxMove >= 0.0)) maxMove = std::numeric_limits<double>::infinity();  // NaN or negative: unknown

@@ -197,6 +197,12 @@ class CutEngine {
                          std::size_t groupSize);
   [[nodiscard]] double travelLimit(int id) const;
   [[nodiscard]] double travelPad(int id) const;
+  // With tissue physics, after every sample: what the cuts added settles where its
+  // springs balance (physics::settleVertices with params().tissue), on every object
+  // with tissue properties, except the tracks' tips on the blade (the `from` points of
+  // the sample's preview), and the collision tree hears of the moves. The first call on
+  // an object only marks its vertices settled: call it once before the first sample.
+  void settleAdded(std::span<const PreviewSegment> preview = {});
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

@@ -282,11 +282,9 @@ std::vector<Vertex> unsettledVertices(SurfaceMesh& m, std::span<const Vec3> keep
   for (auto it = std::find(flags.begin(), flags.end(), 0); it != flags.end(); it = std::find(it + 1, flags.end(), 0)) {
     const Vertex v(static_cast<std::uint32_t>(it - flags.begin()));
     if (!m.isValid(v)) continue;
-    auto at = [&](Vertex w) {
-      return std::any_of(keep.begin(), keep.end(),
-                         [&](const Vec3& q) { return (q - m.position(w)).squaredNorm() < 1e-12; });
-    };
-    if (!at(v)) out.push_back(v);
+    const bool kept =
+        std::any_of(keep.begin(), keep.end(), [&](const Vec3& q) { return (q - m.position(v)).squaredNorm() < 1e-12; });
+    if (!kept) out.push_back(v);
   }
   return out;
 }

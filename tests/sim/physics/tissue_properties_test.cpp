@@ -1,7 +1,6 @@
 #include "sim/physics/tissue_properties.h"
 
 #include <cmath>
-#include <iostream>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -324,7 +323,6 @@ TEST(TissueProperties, SettlingPutsACutVertexWhereItsSpringsBalance) {
   TissueParams many = p, few = p;
   many.settleSweeps = 40;
   few.settleSweeps = 2;
-  copy.getVertexProperty<std::uint8_t>(kSettledProp)[v] = 0;
   settleVertices(more, std::vector<mesh::Vertex>{v}, many);
   settleVertices(fewer, std::vector<mesh::Vertex>{v}, few);
   EXPECT_LT(balanceForce(more, v, p).norm(), balanceForce(fewer, v, p).norm());
