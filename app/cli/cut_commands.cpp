@@ -167,6 +167,7 @@ int cut(const Args& args) {
   j["collision_margin_refits"] = st.marginRefits;
   j["collision_margin_passes"] = st.marginPasses;
   j["collision_vertices_reanchored"] = st.verticesReanchored;
+  j["collision_vertices_refitted"] = st.verticesRefitted;
   j["separation_ms"] = st.separationSeconds * 1e3;
   j["fast_samples"] = st.fastSamples;
   j["slow_samples"] = st.slowSamples;

@@ -135,6 +135,17 @@ class TriangleBvh {
   // a refit()).
   std::size_t refitTravelled(const mesh::SurfaceMesh& m, std::span<double> travel, std::span<const std::uint32_t> past,
                              std::size_t groupSize);
+  // Only the listed vertices moved since the last refit (physics' awake list in
+  // active-region mode, vertices a caller moved; repeats allowed): with a margin, those
+  // farther than half the margin from their anchors are re-anchored and their leaves
+  // refitted, the others' boxes still hold. An active region of ~1500 vertices that
+  // moves a little every step then costs a read of each, not a refit of each one's
+  // leaves. In refitTravelled's mode a short list is anchored where it is (as
+  // refitVertices) and keeps the mode; a longer one ends it (every vertex is within
+  // the margin then, if refitTravelled took every group past the limit: call it
+  // first). Without a margin: refitVertices. Returns the vertices re-anchored.
+  std::size_t refitListed(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved);
+  static constexpr std::size_t kFewListed = 64;  // refitListed in the travelled mode: anchored at once
   static constexpr double kTravelReach = 0.5;
   // For the physics that sums the moves: the entry past which a group is listed (the
   // margin's share beyond the reach; +inf without a margin), and the room to add each

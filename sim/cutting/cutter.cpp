@@ -3066,6 +3066,8 @@ struct CutEngine::Impl {
     const SurfaceMesh& m = objects[i].mesh;
     collision::TriangleBvh& b = bvhs[i];
     if (b.sync(m) != collision::SyncResult::Rebuilt) {
+      // A pass over every vertex with no bound on the moves covers the listed ones.
+      const bool coversAll = moved[i] && (b.motionMargin() <= 0.0 || !std::isfinite(moveBound[i]));
       if (moved[i] && b.motionMargin() > 0.0) {
         const std::size_t passes = b.motionPasses();
         stats.verticesReanchored += static_cast<long>(travelling ? b.refitTravelled(m, travel, travelPast, groupSize)
@@ -3075,8 +3077,11 @@ struct CutEngine::Impl {
       } else if (moved[i]) {
         b.refit(m);
         ++stats.fullRefits;
-      } else if (!movedList[i].empty()) {
-        b.refitVertices(m, std::span<const std::uint32_t>(movedList[i]));
+      }
+      // After the travelled refit (it takes the groups past the limit first). Listed
+      // moves are not in the physics' bound or sums (a region step, settled vertices).
+      if (!coversAll && !movedList[i].empty()) {
+        stats.verticesReanchored += static_cast<long>(b.refitListed(m, std::span<const std::uint32_t>(movedList[i])));
         ++stats.regionRefits;
         stats.verticesRefitted += static_cast<long>(movedList[i].size());
       }
@@ -3104,7 +3109,7 @@ struct CutEngine::Impl {
 
   // Physics moved these vertices (told by verticesMoved): kept until the next query.
   void noteMoved(std::size_t i, std::span<const std::uint32_t> list) {
-    if (moved[i]) return;
+    if (moved[i] && !std::isfinite(moveBound[i])) return;  // the pass looks at every vertex
     const SurfaceMesh& m = objects[i].mesh;
     for (std::uint32_t v : list)
       if (v >= m.verticesSize()) throw CutError("verticesMoved: vertex index " + std::to_string(v) + " out of range");

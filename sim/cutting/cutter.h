@@ -65,9 +65,10 @@ struct CutParams {
   long strokeFacesMin = 4096;
   double strokeFacesFactor = 1.0;
   // Fat collision boxes (collision::TriangleBvh::setMotionMargin) [mm]: with tissue
-  // that moves every step (physics without an active region) a moved object's tree
-  // then re-anchors only the vertices that moved farther than this instead of a full
-  // refit. 0: tight boxes, a full refit per motion. Hits are the same either way.
+  // that moves every step a moved object's tree then re-anchors only the vertices that
+  // moved farther than this (half of it for named vertices: an active region's list)
+  // instead of a full refit, or a refit around every named vertex. 0: tight boxes, a
+  // full refit per motion. Hits are the same either way.
   double collisionMargin = 0.0;
   instruments::Settings tool;
   // Physics hooks: when the mesh carries the tissue properties (physics::
@@ -175,7 +176,10 @@ class CutEngine {
   // Moving vertices without the whole-tree refit that object() implies (e.g. physics
   // stepping the mesh in place): move positions of meshToMove(id), then name what moved
   // with verticesMoved(id, indices) (physics::movedVertices) before the next sample;
-  // only the collision tree's boxes around those vertices are refitted. verticesMoved(id)
+  // only the collision tree's boxes around those vertices are refitted (with a
+  // collisionMargin, around those that left it: TriangleBvh::refitListed). Named
+  // vertices are refitted also when a bound (verticesMovedWithin) comes before the
+  // next sample, whichever came first. verticesMoved(id)
   // says every vertex may have moved. Do not change the connectivity. Throws CutError
   // for an unknown id or an index out of range.
   [[nodiscard]] mesh::SurfaceMesh& meshToMove(int id);

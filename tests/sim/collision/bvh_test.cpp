@@ -373,6 +373,97 @@ TEST(TriangleBvh, TravelledBoxesTakeVerticesMovedBySomeoneElse) {
   expectBvhMatchesBruteForce(q.m, q.bvh, src, 20);
 }
 
+// A region that moves every step and says which vertices it moved (physics' awake
+// list): only the listed vertices are read, those that left half the margin are
+// re-anchored, and every box still holds its corners and every query is exact, with
+// the list repeating vertices, a patch of it jumping past the margin, and faces split
+// between steps.
+TEST(TriangleBvh, ListedMovesAreReadOnlyFromTheList) {
+  std::mt19937_64 rng(41);
+  std::normal_distribution<double> N(0.0, 1.0);
+  SegmentSource src(42);
+  SurfaceMesh m = testing::slab(34, 1.0, 2.0);
+  TriangleBvh bvh(m);
+  const double margin = 0.2;
+  bvh.setMotionMargin(m, margin);
+  std::vector<std::uint32_t> region;
+  for (mesh::Vertex v : m.vertices())
+    if ((m.position(v).head<2>() - Eigen::Vector2d(17.0, 17.0)).norm() < 5.0) region.push_back(v.idx());
+  ASSERT_GT(region.size(), 100u);
+  ASSERT_LT(4 * region.size(), m.nVertices());
+  std::size_t listed = 0, small = 0, large = 0;
+  const int steps = testing::scaled(60);
+  for (int step = 0; step < steps; ++step) {
+    const bool jump = step % 10 == 9;
+    std::vector<std::uint32_t> list = region;
+    if (step % 3 == 0) list.insert(list.end(), region.begin(), region.begin() + 20);  // repeats
+    for (std::uint32_t v : region) {
+      Vector3d& p = m.positions()[v];
+      if (jump && (p.head<2>() - Eigen::Vector2d(16.0, 17.0)).norm() < 2.0)
+        p += Vector3d(N(rng), N(rng), N(rng)).normalized() * (1.5 * margin);
+      else
+        p += 0.005 * Vector3d(N(rng), N(rng), N(rng));
+    }
+    if (step % 7 == 3) {  // a cut's edit between steps
+      const mesh::Vertex v(region[rng() % region.size()]);
+      const Face f = *m.faces(v).begin();
+      const auto& vs = m.vertices(f);
+      const mesh::Vertex added = m.splitFace(f, (m.position(vs[0]) + m.position(vs[1]) + m.position(vs[2])) / 3.0);
+      bvh.sync(m);
+      region.push_back(added.idx());
+    }
+    listed += list.size();
+    (jump ? large : small) += bvh.refitListed(m, list);
+    ASSERT_EQ(bvh.check(m), "") << "step " << step;
+    if (step % 3 == 0) expectBvhMatchesBruteForce(m, bvh, src, 10);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  EXPECT_LT(20 * small, listed) << "drifts within half the margin are not refitted";
+  EXPECT_GT(large, 0u) << "a jump past the margin is";
+  // Listed moves do not leave the boxes slack they do not have: a vertex not listed,
+  // moved, is caught by the pass of refitMoved (which reads every vertex).
+  m.positions()[0].z() += 3.0;
+  EXPECT_GT(bvh.refitMoved(m), 0u);
+  EXPECT_EQ(bvh.check(m), "");
+  const std::vector<std::uint32_t> bad{static_cast<std::uint32_t>(m.verticesSize())};
+  EXPECT_THROW(bvh.refitListed(m, bad), CollisionError);
+}
+
+// In refitTravelled's mode a short list is anchored where it is and the mode goes on
+// (no pass over all the vertices at the next call); a long one ends the mode (the next
+// call makes one pass). Either way the boxes hold and queries are exact.
+TEST(TriangleBvh, ListedMovesInTheTravelledMode) {
+  QuietGroup2 q;
+  const mesh::Vertex x(2 * TravelSums::G + 5);
+  q.m.position(x).x() += 0.9 * q.reach;
+  const std::vector<std::uint32_t> one = {x.idx()};
+  EXPECT_EQ(q.bvh.refitListed(q.m, one), 1u);
+  ASSERT_EQ(q.bvh.check(q.m), "");
+  const std::size_t passes = q.bvh.motionPasses();
+  q.moveGroup2(0.99 * (q.bvh.travelLimit() + q.reach));
+  q.sums.add(q.before, q.m, q.bvh);
+  EXPECT_TRUE(q.sums.past.empty()) << "the entry allows the move";
+  q.sums.take(q.m, q.bvh);
+  EXPECT_EQ(q.bvh.motionPasses(), passes) << "still in the mode";
+  EXPECT_EQ(q.bvh.check(q.m), "") << "the listed vertex left its box";
+  // A long list, moved by 0.6 margin: re-anchored, and the mode ends.
+  std::vector<std::uint32_t> many;
+  for (std::uint32_t v = 0; v < 2 * TriangleBvh::kFewListed; ++v) {
+    q.m.positions()[v].y() += 0.6 * q.margin;
+    many.push_back(v);
+  }
+  q.before = q.m.positions();
+  EXPECT_EQ(q.bvh.refitListed(q.m, many), many.size());
+  ASSERT_EQ(q.bvh.check(q.m), "");
+  q.moveGroup2(0.3 * q.reach);
+  q.sums.add(q.before, q.m, q.bvh);
+  q.sums.take(q.m, q.bvh);
+  EXPECT_EQ(q.bvh.motionPasses(), passes + 1) << "one pass coming back into the mode";
+  EXPECT_EQ(q.bvh.check(q.m), "");
+  SegmentSource src(43);
+  expectBvhMatchesBruteForce(q.m, q.bvh, src, 20);
+}
+
 // Entries kept from an earlier stay in the mode (below 0) must not outlive another
 // refit: refitMoved leaves group 2's vertices 0.9 reach from their anchors (within its
 // own slack), so coming back the entries must start from there, and a move the old

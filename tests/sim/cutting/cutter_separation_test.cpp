@@ -117,12 +117,9 @@ void expectContactsAsBruteForce(CutEngine& e, int id, const instruments::Pose& p
   e.endStroke(instruments::Hand::Left);
 }
 
-// Vertices moved and named: only the tree around them is refitted, and queries see
-// the new surface (the raised patch is far outside its old boxes).
-TEST(CutterMotion, VerticesMovedRefitsOnlyThemAndQueriesSeeTheMotion) {
-  CutEngine e;
-  const int id = e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(20, 20, 2), {16, 16, 2}));
-  mesh::SurfaceMesh& m = e.meshToMove(id);
+// The top vertices within 4 mm of (10, 10) raised by 3 mm (the slab of 20 x 20 x 2
+// mm below); returns them.
+std::vector<std::uint32_t> raisePatch(mesh::SurfaceMesh& m) {
   std::vector<std::uint32_t> moved;
   for (mesh::Vertex v : m.vertices()) {
     const Vec3 p = m.position(v);
@@ -131,6 +128,16 @@ TEST(CutterMotion, VerticesMovedRefitsOnlyThemAndQueriesSeeTheMotion) {
       moved.push_back(v.idx());
     }
   }
+  return moved;
+}
+
+// Vertices moved and named: only the tree around them is refitted, and queries see
+// the new surface (the raised patch is far outside its old boxes).
+TEST(CutterMotion, VerticesMovedRefitsOnlyThemAndQueriesSeeTheMotion) {
+  CutEngine e;
+  const int id = e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(20, 20, 2), {16, 16, 2}));
+  mesh::SurfaceMesh& m = e.meshToMove(id);
+  const std::vector<std::uint32_t> moved = raisePatch(m);
   ASSERT_GT(moved.size(), 10u);
   e.verticesMoved(id, moved);
   // The grasper's (closed) jaws at z = 3.6 from x = 0 to 10: above the old top, into
@@ -229,16 +236,27 @@ TEST(CutterMotion, ActiveRegionPhysicsNamesTheMovedVertices) {
   EXPECT_EQ(e.stats().fullRefits, 0);
 }
 
+// What a run of the engine ended with, to compare runs to the bit.
+struct CutOutcome {
+  std::vector<Eigen::Vector3d> x;
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  CutStats stats;
+  explicit CutOutcome(const CutEngine& e) : stats(e.stats()) {
+    for (const auto& obj : e.objects()) {
+      x.insert(x.end(), obj.mesh.positions().begin(), obj.mesh.positions().end());
+      for (mesh::Face f : obj.mesh.faces()) {
+        const auto& vs = obj.mesh.vertices(f);
+        faces.push_back({vs[0].idx(), vs[1].idx(), vs[2].idx()});
+      }
+    }
+  }
+};
+
 // Fat collision boxes (CutParams::collisionMargin) change only the pruning: with the
 // tissue moving under physics every sample (a pre-stretched slab that gapes as it is
 // cut), cuts with them end with exactly the mesh that full refits give, with or
 // without the physics' bound on the moves, and no full refit is done.
 TEST(CutterMotion, FatCollisionBoxesCutExactlyAsFullRefits) {
-  struct Out {
-    std::vector<Eigen::Vector3d> x;
-    std::vector<std::array<std::uint32_t, 3>> faces;
-    CutStats stats;
-  };
   auto run = [](double margin, bool bound) {
     physics::TissueParams tissue;
     CutParams params;
@@ -260,28 +278,90 @@ TEST(CutterMotion, FatCollisionBoxesCutExactlyAsFullRefits) {
     test::stroke(e, Vec3(5, 10.3, -1), Vec3(15, 10.3, -1), Vec3(0, 0, -1), 50.0, 1000.0, stepPhysics);
     for (int i = 0; i < 100; ++i) stepPhysics(e);  // the cut gapes
     test::stroke(e, Vec3(10.2, 4, -1), Vec3(10.2, 16, -1), Vec3(0, 0, -1), 50.0, 1000.0, stepPhysics);
-    Out o;
-    for (const auto& obj : e.objects()) {
-      o.x.insert(o.x.end(), obj.mesh.positions().begin(), obj.mesh.positions().end());
-      for (mesh::Face f : obj.mesh.faces()) {
-        const auto& vs = obj.mesh.vertices(f);
-        o.faces.push_back({vs[0].idx(), vs[1].idx(), vs[2].idx()});
-      }
-    }
-    o.stats = e.stats();
-    return o;
+    return CutOutcome(e);
   };
-  const Out full = run(0.0, false);
+  const CutOutcome full = run(0.0, false);
   ASSERT_GT(full.stats.trianglesCut, 10);
   EXPECT_GT(full.stats.fullRefits, 100);
   for (const bool bound : {false, true}) {
-    const Out fat = run(0.25, bound);
+    const CutOutcome fat = run(0.25, bound);
     EXPECT_EQ(fat.stats.fullRefits, 0) << "bound " << bound;
     EXPECT_GT(fat.stats.marginRefits, 100) << "bound " << bound;
     EXPECT_EQ(fat.stats.trianglesCut, full.stats.trianglesCut) << "bound " << bound;
     EXPECT_EQ(fat.faces, full.faces) << "bound " << bound;
     EXPECT_EQ(fat.x, full.x) << "bound " << bound;
   }
+}
+
+// Vertices named as moved (settled by the cutter, or an active region's step) and
+// then a bound for the whole tissue that fits in the boxes' slack: the named ones
+// were not under that bound and are refitted all the same.
+TEST(CutterMotion, NamedMovesAreKeptUnderAMoveBound) {
+  CutParams params;
+  params.collisionMargin = 0.25;
+  CutEngine e(params);
+  const int id = e.addObject(test::makeBox(Vec3(0, 0, 0), Vec3(20, 20, 2), {16, 16, 2}));
+  mesh::SurfaceMesh& m = e.meshToMove(id);
+  const std::vector<std::uint32_t> moved = raisePatch(m);
+  ASSERT_GT(moved.size(), 10u);
+  e.verticesMoved(id, moved);
+  e.verticesMovedWithin(id, 1e-4);  // the rest moved by at most 0.1 µm
+  const instruments::Pose pose = test::scalpel(Vec3(10, 10, 3.6), Vec3(1, 0, 0), Vec3(0, 0, 1));
+  expectContactsAsBruteForce(e, id, pose);
+  EXPECT_EQ(e.stats().regionRefits, 1);
+  EXPECT_EQ(e.stats().fullRefits, 0);
+  // The other order: the bound first, then the names.
+  for (std::uint32_t v : moved) m.position(mesh::Vertex(v)).z() += 1.0;
+  e.verticesMovedWithin(id, 1e-4);
+  e.verticesMoved(id, moved);
+  expectContactsAsBruteForce(e, id, pose);
+  EXPECT_EQ(e.stats().regionRefits, 2);
+}
+
+// Physics in active-region mode on a slab asleep (balanced), a groove cut into it:
+// the engine is told each step's awake list. With fat boxes only the listed vertices
+// that left half the margin are refitted, and the cut is the one tight boxes give.
+TEST(CutterMotion, ActiveRegionListsWithFatBoxesCutAsTightBoxes) {
+  auto run = [](double margin) {
+    physics::TissueParams tissue;
+    tissue.massFloorDt = 1e-3;
+    CutParams params;
+    params.tissue = tissue;
+    params.collisionMargin = margin;
+    mesh::SurfaceMesh m = test::makeBox(Vec3(0, 0, 0), Vec3(40, 40, 2), {32, 32, 2});
+    physics::attachTissueProperties(m, tissue);
+    CutEngine e(params);
+    const int id = e.addObject(std::move(m));
+    physics::Params pp;
+    pp.tissue = tissue;
+    pp.active.enabled = true;
+    physics::Dynamics dyn;
+    auto stepPhysics = [&](CutEngine& eng) {
+      physics::step(pp, dyn, eng.meshToMove(id), 1e-3);
+      if (const auto listed = physics::movedVertices(dyn))
+        eng.verticesMoved(id, *listed);
+      else
+        eng.verticesMoved(id);
+    };
+    for (int i = 0; i < 20000; ++i) {
+      stepPhysics(e);
+      if (physics::movedVertices(dyn)->empty()) break;
+    }
+    EXPECT_TRUE(physics::movedVertices(dyn)->empty()) << "the slab fell asleep";
+    test::stroke(e, Vec3(16, 20.3, 1.0), Vec3(24, 20.3, 1.0), Vec3(0, 0, -1), 50.0, 1000.0, stepPhysics);
+    for (int i = 0; i < 100; ++i) stepPhysics(e);  // the groove opens
+    return CutOutcome(e);
+  };
+  const CutOutcome tight = run(0.0);
+  const CutOutcome fat = run(0.25);
+  ASSERT_GT(tight.stats.trianglesCut, 10);
+  EXPECT_GT(fat.stats.regionRefits, 50) << "the stroke's steps moved a region, not most of the slab";
+  EXPECT_GT(fat.stats.verticesRefitted, 20 * fat.stats.regionRefits) << "regions of some size";
+  EXPECT_GT(fat.stats.verticesReanchored, 0) << "those past half the margin are refitted";
+  EXPECT_LT(10 * fat.stats.verticesReanchored, fat.stats.verticesRefitted) << "most listed moves stay in the margin";
+  EXPECT_EQ(fat.stats.trianglesCut, tight.stats.trianglesCut);
+  EXPECT_EQ(fat.faces, tight.faces);
+  EXPECT_EQ(fat.x, tight.x);
 }
 
 }  // namespace
