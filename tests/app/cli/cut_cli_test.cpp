@@ -153,6 +153,14 @@ TEST(CutCli, PhysicsTellsTheCutterWhatMoved) {
   EXPECT_EQ(region["closed"], true);
   EXPECT_GT(region["collision_region_refits"].get<long>(), 0);
   EXPECT_LT(region["collision_full_refits"].get<long>(), full["collision_full_refits"].get<long>());
+  EXPECT_GT(region["collision_vertices_refitted"].get<long>(), 0);
+  // The steps that integrated a region: most of them, each a part of the box.
+  const long steps = region["physics_steps"].get<long>(), regionSteps = region["physics_region_steps"].get<long>();
+  EXPECT_GT(2 * regionSteps, steps);
+  EXPECT_LE(regionSteps, steps);
+  EXPECT_GT(region["physics_us_per_region_step"].get<double>(), 0.0);
+  EXPECT_GT(region["physics_region_vertices_mean"].get<double>(), 0.0);
+  EXPECT_FALSE(fat.contains("physics_region_steps")) << "only with the region on";
   run(base + " --active-region maybe", 2);
 }
 
