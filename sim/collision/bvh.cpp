@@ -1065,31 +1065,32 @@ void TriangleBvh::refitVertices(const mesh::SurfaceMesh& m, std::span<const std:
 
 std::size_t TriangleBvh::refitListed(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved) {
   checkMesh(m, "refitListed");
+  const std::size_t nv = m.verticesSize();
+  for (std::uint32_t v : moved)
+    if (v >= nv) throw CollisionError("TriangleBvh::refitListed: vertex index " + std::to_string(v) + " out of range");
   // In the travelled mode a vertex's bound depends on its group's entry, which only
   // the physics knows: a few vertices are anchored anew and keep the mode.
   if (margin_ <= 0.0 || (travelling_ && moved.size() <= kFewListed)) {
     refitVertices(m, moved);
     return moved.size();
   }
-  // No group is past the travel limit between syncs: every vertex is within the margin.
-  if (travelling_) {
-    travelling_ = false;
-    slack_ = 0.0;
-  }
   if (anchor_.size() < m.verticesSize()) growAnchors(m);
   const double theta = 0.5 * margin_;
   const Vector3d* X = m.positions().data();
-  const std::size_t nv = m.verticesSize();
   std::vector<std::uint32_t>& moving = moving_;
   moving.clear();
   double worst = 0.0;
   for (std::uint32_t v : moved) {
-    if (v >= nv) throw CollisionError("TriangleBvh::refitListed: vertex index " + std::to_string(v) + " out of range");
     const double d = (X[v] - anchor_[v].cast<double>()).cwiseAbs().maxCoeff();
     if (d <= theta)
       worst = std::max(worst, d);
     else
       moving.push_back(v);  // (a repeat is anchored twice, its leaves fitted once)
+  }
+  // No group is past the travel limit between syncs: every vertex is within the margin.
+  if (travelling_) {
+    travelling_ = false;
+    slack_ = 0.0;
   }
   // The others are where they were: the bound on them holds; the listed add theirs.
   slack_ = std::min(slack_, margin_ - worst);

@@ -143,7 +143,8 @@ class TriangleBvh {
   // leaves. In refitTravelled's mode a short list is anchored where it is (as
   // refitVertices) and keeps the mode; a longer one ends it (every vertex is within
   // the margin then, if refitTravelled took every group past the limit: call it
-  // first). Without a margin: refitVertices. Returns the vertices re-anchored.
+  // first). Without a margin: refitVertices. Returns the vertices re-anchored; throws
+  // CollisionError for an index out of range (before any change).
   std::size_t refitListed(const mesh::SurfaceMesh& m, std::span<const std::uint32_t> moved);
   static constexpr std::size_t kFewListed = 64;  // refitListed in the travelled mode: anchored at once
   static constexpr double kTravelReach = 0.5;

@@ -427,6 +427,8 @@ TEST(TriangleBvh, ListedMovesAreReadOnlyFromTheList) {
   EXPECT_EQ(bvh.check(m), "");
   const std::vector<std::uint32_t> bad{static_cast<std::uint32_t>(m.verticesSize())};
   EXPECT_THROW(bvh.refitListed(m, bad), CollisionError);
+  bvh.setMotionMargin(m, 0.0);
+  EXPECT_THROW(bvh.refitListed(m, bad), CollisionError) << "also with tight boxes";
 }
 
 // In refitTravelled's mode a short list is anchored where it is and the mode goes on
