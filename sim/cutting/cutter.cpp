@@ -3114,12 +3114,19 @@ struct CutEngine::Impl {
     for (std::uint32_t v : list)
       if (v >= m.verticesSize()) throw CutError("verticesMoved: vertex index " + std::to_string(v) + " out of range");
     auto& l = movedList[i];
-    l.insert(l.end(), list.begin(), list.end());
-    if (2 * l.size() > m.verticesSize()) {  // several steps' lists: each vertex once
-      std::sort(l.begin(), l.end());
-      l.erase(std::unique(l.begin(), l.end()), l.end());
+    const std::size_t nv = m.verticesSize();
+    // Most of the mesh: one full refit is cheaper. (A list that long on its own needs
+    // no sort to say so: the tissue's first steps, all awake, were 7 % of a 100k run.)
+    bool most = 2 * list.size() > nv;
+    if (!most) {
+      l.insert(l.end(), list.begin(), list.end());
+      if (2 * l.size() > nv) {  // several steps' lists: each vertex once
+        std::sort(l.begin(), l.end());
+        l.erase(std::unique(l.begin(), l.end()), l.end());
+        most = 2 * l.size() > nv;
+      }
     }
-    if (2 * l.size() > m.verticesSize()) {  // most of the mesh: one full refit is cheaper
+    if (most) {
       moved[i] = 1;
       moveBound[i] = std::numeric_limits<double>::infinity();
       l.clear();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -277,10 +278,15 @@ std::vector<Vertex> unsettledVertices(SurfaceMesh& m, std::span<const Vec3> keep
     return out;
   }
   // A byte scan (most are settled; it runs after every cutting sample, 50k vertices
-  // at 100k triangles).
+  // at 100k triangles): memchr's vector search, not std::find's byte loop (which was
+  // 5 % of `cut --physics on` at 100k).
   const std::vector<std::uint8_t>& flags = m.getVertexProperty<std::uint8_t>(kSettledProp).vector();
-  for (auto it = std::find(flags.begin(), flags.end(), 0); it != flags.end(); it = std::find(it + 1, flags.end(), 0)) {
-    const Vertex v(static_cast<std::uint32_t>(it - flags.begin()));
+  const std::uint8_t* const begin = flags.data();
+  const std::uint8_t* const end = begin + flags.size();
+  for (auto* it = begin; it < end; ++it) {
+    it = static_cast<const std::uint8_t*>(std::memchr(it, 0, static_cast<std::size_t>(end - it)));
+    if (it == nullptr) break;
+    const Vertex v(static_cast<std::uint32_t>(it - begin));
     if (!m.isValid(v)) continue;
     const bool kept =
         std::any_of(keep.begin(), keep.end(), [&](const Vec3& q) { return (q - m.position(v)).squaredNorm() < 1e-12; });

@@ -279,6 +279,28 @@ mesh::Vertex offBalance(mesh::SurfaceMesh& m, const TissueParams& p, Vec3& rest)
   return v;
 }
 
+// The scan finds every unsettled vertex, in index order: the first, a run of them, the
+// last, and none kept on the blade.
+TEST(TissueProperties, UnsettledVerticesAreFoundAnywhere) {
+  auto m = makeGrid(8, 8, 1.0);
+  EXPECT_TRUE(unsettledVertices(m).empty());  // marks all settled
+  auto flag = m.getVertexProperty<std::uint8_t>(kSettledProp);
+  const std::uint32_t n = static_cast<std::uint32_t>(m.verticesSize());
+  std::vector<mesh::Vertex> want;
+  for (std::uint32_t i : {0u, 17u, 18u, 19u, 40u, n - 2, n - 1}) {
+    flag[mesh::Vertex(i)] = 0;
+    want.emplace_back(i);
+  }
+  EXPECT_EQ(unsettledVertices(m), want);
+  // Kept: a point on vertex 18.
+  const std::vector<Vec3> keep{m.position(mesh::Vertex(18u))};
+  std::vector<mesh::Vertex> less = want;
+  less.erase(less.begin() + 2);
+  EXPECT_EQ(unsettledVertices(m, keep), less);
+  for (mesh::Vertex v : want) flag[v] = 1;
+  EXPECT_TRUE(unsettledVertices(m).empty());
+}
+
 TEST(TissueProperties, SettlingPutsACutVertexWhereItsSpringsBalance) {
   TissueParams p;
   auto m = makeGrid(8, 8, 1.0);
