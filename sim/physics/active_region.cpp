@@ -40,13 +40,13 @@ void forEachSpring(const detail::ActiveSet& a, const detail::Cache& c, std::uint
   if (i + 1 < a.csrStart.size())
     for (std::uint32_t k = a.csrStart[i]; k < a.csrStart[i + 1]; ++k) {
       const auto& sp = c.springs[a.csrSpring[k]];
-      fn(sp.i == i ? sp.j : sp.i, sp);
+      fn(sp.i ^ sp.j ^ i, sp);  // the other end, without a branch the CPU cannot predict
     }
   if (i >= a.hasAdded.size() || !a.hasAdded[i]) return;
   auto it = std::lower_bound(a.added.begin(), a.added.end(), std::pair<std::uint32_t, std::uint32_t>(i, 0));
   for (; it != a.added.end() && it->first == i; ++it) {
     const auto& sp = c.springs[it->second];
-    fn(sp.i == i ? sp.j : sp.i, sp);
+    fn(sp.i ^ sp.j ^ i, sp);  // the other end, without a branch the CPU cannot predict
   }
 }
 
@@ -124,7 +124,8 @@ void ensureActiveSet(Dynamics& s, const mesh::SurfaceMesh& m) {
 // is still listed and only changes state. A contact restarts the quiet count of an
 // awake vertex too; a moving neighbour only wakes sleepers.
 void wakeVertex(detail::ActiveSet& a, const detail::Cache& c, std::uint32_t j, bool contact) {
-  if (j >= a.awake.size() || c.invMass[j] == 0.0 || (!contact && a.awake[j] == kAwake)) return;
+  // (The awake byte first: inside the region that is the answer, without the mass's line.)
+  if (j >= a.awake.size() || (!contact && a.awake[j] == kAwake) || c.invMass[j] == 0.0) return;
   a.quiet[j] = 0;
   if (a.awake[j] == kAsleep) a.list.push_back(j);
   a.awake[j] = kAwake;
@@ -221,7 +222,7 @@ StepInfo activeStep(const Params& params, Dynamics& state, mesh::SurfaceMesh& me
       xn[q] = x[i] + h * vn[q];
       // Finite and below the monitor's speed bound (a divergence that stays finite).
       ok = ok && xn[q].allFinite() && vn[q].squaredNorm() <= maxV2;
-      a.loud[q] = a.loud[q] || f.squaredNorm() > ft2 || vn[q].squaredNorm() > vt2;
+      a.loud[q] |= static_cast<std::uint8_t>((f.squaredNorm() > ft2) | (vn[q].squaredNorm() > vt2));  // (no branch)
     }
     if (!ok) return fallBack();
     for (std::size_t q = 0; q < m; ++q) {
