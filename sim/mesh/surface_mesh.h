@@ -125,11 +125,18 @@ class HandleLog {
   }
   void clear() { size_ = 0; }
   [[nodiscard]] std::span<const H> view() const { return {data_, size_}; }
+  // Room for n handles in all, written once so that filling it does not page-fault.
+  void reserve(std::size_t n) {
+    if (n > cap_) regrow(n);
+  }
+  void touchReserved() {
+    if (cap_ > size_) std::memset(static_cast<void*>(data_ + size_), 0, (cap_ - size_) * sizeof(H));
+  }
 
  private:
   // Slots past size_ are raw storage (never read), so growing does not fill them.
-  [[gnu::noinline]] void grow() {
-    const std::size_t cap = std::max<std::size_t>(64, 2 * cap_);
+  [[gnu::noinline]] void grow() { regrow(std::max<std::size_t>(64, 2 * cap_)); }
+  void regrow(std::size_t cap) {
     H* data = std::allocator<H>().allocate(cap);
     if (size_ > 0) std::memcpy(static_cast<void*>(data), data_, size_ * sizeof(H));
     release();
@@ -221,8 +228,9 @@ class SurfaceMesh {
   [[nodiscard]] std::span<const Edge> editedEdges() const { return journalE_.view(); }
   [[nodiscard]] std::span<const Face> editedFaces() const { return journalF_.view(); }
 
-  // Room for nv vertices, ne edges and nf faces (every property array, and the edits'
-  // per-face scratch) before an array is reallocated.
+  // Room for nv vertices, ne edges and nf faces (every property array, the edits'
+  // per-face scratch, and the journal for the edits that add them) before an array is
+  // reallocated.
   void reserve(std::size_t nv, std::size_t ne, std::size_t nf);
   // Writes the reserved room of every property array once (nothing changes), so that
   // the edits that fill it later do not page-fault on fresh memory (a real-time loop

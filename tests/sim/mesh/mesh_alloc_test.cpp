@@ -49,7 +49,8 @@ std::uint32_t spread(std::size_t i, std::size_t n) { return static_cast<std::uin
 
 constexpr std::size_t kEdits = 300;
 
-// The journal grows geometrically; a few reallocations over a run are allowed for.
+// reserve() gives the journal room too; an old vertex whose edge list outgrows its
+// capacity allocates once more, a few times a run.
 constexpr double kBound = 1.1;
 
 // Edits far from where the tests work (the last rows), so that the journal and the

@@ -614,13 +614,17 @@ TEST(SurfaceMesh, MovingKeepsTheLayoutAndJournal) {
 }
 
 // reserve() makes room in every property, attached ones and ones added later included,
-// so that edits within the reserved sizes move no array.
+// and in the edit journal, so that edits within the reserved sizes move no array.
 TEST(SurfaceMesh, ReserveCoversEveryPropertySoEditsMoveNoArray) {
   SurfaceMesh m = grid(2);
   auto mass = m.addVertexProperty<double>("v:mass", 1.0);
   auto rest = m.addEdgeProperty<double>("e:rest", 2.0);
   auto tag = m.addFaceProperty<int>("f:tag", 3);
   m.reserve(100, 300, 200);
+  const Vertex* journalV = m.editedVertices().data();
+  const Edge* journalE = m.editedEdges().data();
+  const Face* journalF = m.editedFaces().data();
+  const std::size_t journaledE = m.editedEdges().size(), journaledF = m.editedFaces().size();
   auto late = m.addVertexProperty<int>("v:late", 4);
   for (Face f : m.faces()) tag[f] = static_cast<int>(f.idx()) + 10;
   const double* massData = mass.vector().data();
@@ -640,6 +644,12 @@ TEST(SurfaceMesh, ReserveCoversEveryPropertySoEditsMoveNoArray) {
   EXPECT_EQ(tag.vector().data(), tagData);
   EXPECT_EQ(late.vector().data(), lateData);
   EXPECT_EQ(m.positions().data(), points);
+  EXPECT_EQ(m.editedVertices().data(), journalV);
+  EXPECT_EQ(m.editedEdges().data(), journalE);
+  EXPECT_EQ(m.editedFaces().data(), journalF);
+  EXPECT_GE(m.editedVertices().size(), 30u);  // the splits were journaled, in the same arrays
+  EXPECT_GE(m.editedEdges().size(), journaledE + 90);
+  EXPECT_GE(m.editedFaces().size(), journaledF + 90);
   EXPECT_EQ(late.vector().size(), m.verticesSize());
   for (Face f : m.faces()) EXPECT_GE(tag[f], 10);  // split parts inherit their face's tag
   for (Edge e : m.edges()) EXPECT_EQ(rest[e], 2.0);
@@ -660,7 +670,11 @@ TEST(SurfaceMesh, TouchReservedChangesNothingAndMovesNoArray) {
   const double* massData = mass.vector().data();
   const int* tagData = tag.vector().data();
   const std::uint64_t topology = m.topologyVersion(), layout = m.layoutVersion();
+  const std::vector<Edge> journalE(m.editedEdges().begin(), m.editedEdges().end());
+  const std::vector<Face> journalF(m.editedFaces().begin(), m.editedFaces().end());
   m.touchReserved();
+  EXPECT_TRUE(std::ranges::equal(m.editedEdges(), journalE));
+  EXPECT_TRUE(std::ranges::equal(m.editedFaces(), journalF));
   EXPECT_EQ(m.verticesSize(), nv);
   EXPECT_EQ(m.edgesSize(), ne);
   EXPECT_EQ(m.facesSize(), nf);
