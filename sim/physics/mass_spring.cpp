@@ -306,14 +306,34 @@ std::optional<double> sharedStiffness(const Cache& c, std::size_t ns) {
 // The symplectic step's groups from the CSR: each vertex's neighbours in index order
 // (the lower ones come from earlier vertices' CSR rows, in row order, then its own row,
 // sorted), one rank per neighbour position; a group's lanes sorted by degree
-// (descending, stable), each block padded to its largest degree.
+// (descending, stable). Each block gets the number of ranks R that minimises R plus,
+// for every lane of degree d > R, ⌈(d − R)/8⌉ tail ranks and kTailCost for summing
+// them (blocks of like degrees: R is the largest, as plain padding would have it).
 // Every rank of lane `lane` in block `blk` gets vertex i as its far end: l = 0, so a
 // padding lane adds nothing and the AVX-512 step without the monitor's sums needs no
-// k ≠ 0 test (one operation a rank fewer). Lanes past n (no vertex) keep the group's
-// first vertex; their results are not stored.
+// k ≠ 0 test (one operation a rank fewer). Tail ranks are padded the same way. Lanes
+// past n (no vertex) keep the group's first vertex; their results are not stored.
 void pointLaneAtItself(Cache& c, std::size_t blk, std::size_t lane, std::size_t i) {
   for (std::uint32_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
     c.rankX[detail::kLanes * r + lane] = static_cast<std::uint32_t>(3 * i);
+}
+
+// A tail's reduction (three horizontal sums and a masked add) in ranks' worth of work.
+constexpr long kTailCost = 1;
+
+// Ranks of a block whose lanes have degrees deg (descending; −1: no vertex).
+std::uint32_t blockRanks(const long* deg) {
+  constexpr long L = static_cast<long>(detail::kLanes);
+  long best = std::max(0L, deg[0]), bestCost = best;
+  for (long r = best - 1; r >= 0; --r) {
+    long cost = r;
+    for (std::size_t u = 0; u < detail::kLanes && deg[u] > r; ++u) cost += (deg[u] - r + L - 1) / L + kTailCost;
+    if (cost < bestCost) {
+      best = r;
+      bestCost = cost;
+    }
+  }
+  return static_cast<std::uint32_t>(best);
 }
 
 void buildBlocks(Cache& c, std::size_t n) {
@@ -338,6 +358,7 @@ void buildBlocks(Cache& c, std::size_t n) {
     }
   auto degree = [&](std::size_t i) { return i < n ? static_cast<long>(adjStart[i + 1] - adjStart[i]) : -1L; };
   c.rankStart.assign(2 * ng + 1, 0);
+  c.tailStart.assign(ng + 1, 0);
   c.slotVertex.resize(G * ng);
   c.vertexSlot.resize(G * ng);
   for (std::size_t g = 0; g < ng; ++g) {
@@ -345,12 +366,24 @@ void buildBlocks(Cache& c, std::size_t n) {
     std::iota(order, order + G, std::uint8_t{0});
     std::stable_sort(order, order + G,
                      [&](std::uint8_t a, std::uint8_t b) { return degree(G * g + a) > degree(G * g + b); });
+    std::uint32_t tails = 0;
     for (std::size_t slot = 0; slot < G; ++slot) c.vertexSlot[G * g + order[slot]] = static_cast<std::uint8_t>(slot);
-    for (std::size_t h = 0; h < 2; ++h)  // the first lane of a block has its largest degree
-      c.rankStart[2 * g + h + 1] =
-          c.rankStart[2 * g + h] + static_cast<std::uint32_t>(std::max(0L, degree(G * g + order[L * h])));
+    for (std::size_t h = 0; h < 2; ++h) {
+      long deg[L];
+      for (std::size_t u = 0; u < L; ++u) deg[u] = degree(G * g + order[L * h + u]);
+      const std::uint32_t r = blockRanks(deg);
+      c.rankStart[2 * g + h + 1] = c.rankStart[2 * g + h] + r;
+      for (std::size_t u = 0; u < L && deg[u] > static_cast<long>(r); ++u)
+        tails += static_cast<std::uint32_t>((deg[u] - static_cast<long>(r) + static_cast<long>(L) - 1) /
+                                            static_cast<long>(L));
+    }
+    c.tailStart[g + 1] = c.tailStart[g] + tails;
   }
-  const std::size_t lanes = L * c.rankStart[2 * ng];
+  // Tail ranks after all blocks' ranks: absolute rank indices.
+  const std::uint32_t tailBase = c.rankStart[2 * ng];
+  for (std::uint32_t& t : c.tailStart) t += tailBase;
+  const std::size_t ranks = c.tailStart[ng];
+  const std::size_t lanes = L * ranks;
   const std::optional<double> K =
       detail::gPerSpringLanes.load(std::memory_order_relaxed) ? std::nullopt : sharedStiffness(c, ns);
   c.laneLayout = K ? detail::LaneLayout::SharedK : detail::LaneLayout::PerSpring;
@@ -363,25 +396,35 @@ void buildBlocks(Cache& c, std::size_t n) {
   c.rankK.assign(lanes, 0.0);
   c.rankRest.assign(K ? 0 : lanes, 0.0);
   c.rankRest.shrink_to_fit();
+  c.tailSlot.assign(ranks, 0);
   c.halfSlot.assign(2 * ns, 0);
   for (std::size_t g = 0; g < ng; ++g) {
     const auto pad = static_cast<std::uint32_t>(3 * G * g);
     std::fill(c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g]),
               c.rankX.begin() + static_cast<std::ptrdiff_t>(L * c.rankStart[2 * g + 2]), pad);
+    std::uint32_t tail = c.tailStart[g];  // the next tail rank (by slot: block 0's first)
     for (std::size_t slot = 0; slot < G; ++slot) {
       const std::size_t i = G * g + c.slotVertex[G * g + slot];
       if (i >= n) continue;
       const std::size_t blk = 2 * g + slot / L, lane = slot % L;
+      const std::uint32_t r = c.rankStart[blk + 1] - c.rankStart[blk];
       pointLaneAtItself(c, blk, lane, i);
+      const std::uint32_t past = adjStart[i + 1] - adjStart[i] > r ? adjStart[i + 1] - adjStart[i] - r : 0;
+      const std::uint32_t own = static_cast<std::uint32_t>((past + L - 1) / L);
+      for (std::uint32_t t = tail; t < tail + own; ++t) {
+        c.tailSlot[t] = static_cast<std::uint8_t>(slot);
+        std::fill_n(c.rankX.begin() + static_cast<std::ptrdiff_t>(L * t), L, static_cast<std::uint32_t>(3 * i));
+      }
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
-        const std::uint32_t q = adjSlot[a];
-        const std::size_t at = L * (c.rankStart[blk] + (a - adjStart[i])) + lane;
+        const std::uint32_t q = adjSlot[a], pos = a - adjStart[i];
+        const std::size_t at = pos < r ? L * (c.rankStart[blk] + pos) + lane : L * tail + (pos - r);
         // (a spring with k = 0 adds nothing: its lane points at its own vertex too)
         c.rankX[at] = 3 * static_cast<std::uint32_t>(c.k[q] == 0.0 ? i : atUpper[a] ? c.lower[q] : c.other[q]);
         c.rankK[at] = c.k[q];
         if (!K) c.rankRest[at] = c.rest[q];
         c.halfSlot[2 * q + atUpper[a]] = static_cast<std::uint32_t>(at);
       }
+      tail += own;
     }
   }
   c.extraGroup.assign(ng, 0);
@@ -494,6 +537,7 @@ bool updateCache(Cache& c, const mesh::SurfaceMesh& m) {
       c.vertexSlot.push_back(static_cast<std::uint8_t>(slot));
     }
   c.rankStart.resize(2 * ng + 1, c.rankStart.back());
+  c.tailStart.resize(ng + 1, c.tailStart.back());  // new groups: no tails (past the old ones)
   c.extraGroup.resize(ng, 0);
   c.edgeSlot.resize(m.edgesSize(), kNoSlot);
   std::vector<std::uint32_t> touched;
@@ -853,6 +897,8 @@ SweepSums symplecticGroups(const SymplecticArgs& a, std::size_t g0, std::size_t 
   bs.rankStart = c.rankStart.data();
   bs.rankX = c.rankX.data();
   bs.rankK = c.rankK.data();
+  bs.tailStart = c.tailStart.data();
+  bs.tailSlot = c.tailSlot.data();
   const bool shared = c.laneLayout == detail::LaneLayout::SharedK;
   bs.rankRest = shared ? nullptr : c.rankRest.data();
   bs.springK = shared ? c.springK : 0.0;

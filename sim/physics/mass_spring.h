@@ -197,7 +197,11 @@ struct Cache {
   // of every incident spring: each spring appears at both ends). halfSlot[2q],
   // halfSlot[2q + 1]: where CSR slot q sits (8·rank + lane) at its lower and its upper
   // end, so an edit can zero both. extraGroup: groups touched by added springs (their
-  // forces go through f4).
+  // forces go through f4). tailStart (per group, absolute rank indices past the
+  // blocks' ranks) and tailSlot (per tail rank, the lane slot 0–15 it sums for): a
+  // vertex of much higher degree than the rest of its block (a cut's groove bottom
+  // fans 20–30 springs among vertices of 4–6) keeps the springs past its block's rank
+  // count in tail ranks of its own, 8 of them a rank, instead of padding every lane.
   // Lane layout (spring_kernel.h): when every spring with k ≠ 0 has k·rest = one K to
   // rounding (4 ulp; tissue_properties gives every edge k = K / rest, at load and after
   // cuts), the lanes carry the far end and k only (12 bytes; rankRest empty, springK =
@@ -205,7 +209,8 @@ struct Cache {
   // far end, k and rest (20 bytes).
   LaneLayout laneLayout = LaneLayout::PerSpring;
   double springK = 0.0, laneRest = 0.0;
-  std::vector<std::uint32_t> rankStart, rankX, halfSlot;
+  std::vector<std::uint32_t> rankStart, rankX, halfSlot, tailStart;
+  std::vector<std::uint8_t> tailSlot;
   std::vector<double, CacheLineAllocator<double>> rankK, rankRest;
   std::vector<std::uint8_t> slotVertex, vertexSlot, extraGroup;
   std::size_t maxOut = 0;  // most springs at one vertex

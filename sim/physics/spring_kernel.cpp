@@ -117,12 +117,39 @@ inline void integrateScalar(const BlockStep& c, std::size_t t, const double* f, 
   }
 }
 
+// One spring of a lane (far end at x0 + J, k, rest; the lane's vertex at x, y, z)
+// into its force sum and energy. Shared: the shared-K lane layout.
+template <bool Shared, bool Energy>
+inline void springTerm(const BlockStep& c, std::uint32_t J, double K, const double* rest, double x, double y, double z,
+                       double& fx, double& fy, double& fz, double& pe) {
+  const double* xj = c.x0 + J;
+  const double dx = xj[0] - x, dy = xj[1] - y, dz = xj[2] - z;
+  const double l2 = dx * dx + dy * dy + dz * dz;
+  const double len = std::sqrt(l2);
+  double w;
+  if constexpr (Shared) {
+    // (k·l − K)/l; k = 0 (padding, dead springs) gives nothing.
+    const bool on = K != 0.0 && len > 0.0;
+    if constexpr (Energy) pe += K * l2 - (on ? 2.0 * c.springK * len : 0.0);
+    w = on ? (K * len - c.springK) / len : 0.0;
+  } else {
+    const double st = len - *rest;
+    const double kst = K * st;
+    if constexpr (Energy) pe += kst * st;
+    w = len > 0.0 ? kst / len : 0.0;
+  }
+  fx += w * dx;
+  fy += w * dy;
+  fz += w * dz;
+}
+
 // A block's 8 lanes side by side, rank by rank (per lane the same operations in the
 // same order as one vertex at a time): the rank's arrays are read once, not once a
-// lane (~15 % faster than a vertex at a time). Shared: the shared-K lane layout.
+// lane (~15 % faster than a vertex at a time); then the tail ranks of its lanes, in
+// order (the same sums as a block padded to its largest degree, bit for bit). Shared:
+// the shared-K lane layout.
 template <bool Shared, bool Energy>
 void blockStepScalar(const BlockStep& c, FinishSums& out) {
-  const double sharedK = c.springK, twoK = 2.0 * c.springK;
   ScalarSums s;
   double pe[kLanes] = {};
   const bool groupMoves = Energy && c.groupMove2 != nullptr;
@@ -140,29 +167,20 @@ void blockStepScalar(const BlockStep& c, FinishSums& out) {
         ys[lane] = c.x0[3 * i + 1];
         zs[lane] = c.x0[3 * i + 2];
       }
-      for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
-        const std::uint32_t* J = c.rankX + kLanes * r;
-        const double* Kr = c.rankK + kLanes * r;
+      for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r)
         for (std::size_t lane = 0; lane < kLanes; ++lane) {
-          const double* xj = c.x0 + J[lane];
-          const double dx = xj[0] - xs[lane], dy = xj[1] - ys[lane], dz = xj[2] - zs[lane];
-          const double l2 = dx * dx + dy * dy + dz * dz;
-          const double len = std::sqrt(l2);
-          double w;
-          if constexpr (Shared) {
-            // (k·l − K)/l; k = 0 (padding, dead springs) gives nothing.
-            const bool on = Kr[lane] != 0.0 && len > 0.0;
-            if constexpr (Energy) pe[lane] += Kr[lane] * l2 - (on ? twoK * len : 0.0);
-            w = on ? (Kr[lane] * len - sharedK) / len : 0.0;
-          } else {
-            const double st = len - c.rankRest[kLanes * r + lane];
-            const double kst = Kr[lane] * st;
-            if constexpr (Energy) pe[lane] += kst * st;
-            w = len > 0.0 ? kst / len : 0.0;
-          }
-          fx[lane] += w * dx;
-          fy[lane] += w * dy;
-          fz[lane] += w * dz;
+          const std::size_t q = kLanes * r + lane;
+          springTerm<Shared, Energy>(c, c.rankX[q], c.rankK[q], Shared ? nullptr : c.rankRest + q, xs[lane], ys[lane],
+                                     zs[lane], fx[lane], fy[lane], fz[lane], pe[lane]);
+        }
+      for (std::size_t r = c.tailStart[grp]; r < c.tailStart[grp + 1]; ++r) {
+        const std::size_t slot = c.tailSlot[r];
+        if (slot / kLanes != h) continue;
+        const std::size_t lane = slot % kLanes;
+        for (std::size_t u = 0; u < kLanes; ++u) {
+          const std::size_t q = kLanes * r + u;
+          springTerm<Shared, Energy>(c, c.rankX[q], c.rankK[q], Shared ? nullptr : c.rankRest + q, xs[lane], ys[lane],
+                                     zs[lane], fx[lane], fy[lane], fz[lane], pe[lane]);
         }
       }
       for (std::size_t lane = 0; lane < kLanes; ++lane) {
@@ -359,28 +377,35 @@ LD_AVX2 inline void finish4(const BlockStep& c, const __m256d* fa, const double*
   }
 }
 
-// Four lanes (h … h + 3 of block blk) whose vertices' positions start at xi[u]: their
+// Lanes q0 … q0 + 3 of one rank (their vertices' positions xi, (x, y, z, 0) a lane):
+// difference vectors dxyz and force factors (returned).
+template <bool Shared, bool Energy, bool Rsqrt>
+LD_AVX2 inline __m256d terms4(const BlockStep& c, std::size_t q0, const __m256d* xi, __m256d* dxyz, __m256d& pe) {
+  const __m256d sharedK = _mm256_set1_pd(c.springK), twoK = _mm256_set1_pd(2.0 * c.springK);
+  const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+  const std::uint32_t* J = c.rankX + q0;
+  __m256d d[4];
+  for (std::size_t u = 0; u < 4; ++u) d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x0 + J[u], xyz), xi[u]);
+  transpose4(d, dxyz);
+  if constexpr (Shared)
+    return sharedWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
+  else
+    return springWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+}
+
+// Four lanes (h … h + 3 of block blk) whose vertices' positions start at xiAt[u]: their
 // springs, rank by rank, summed in registers, returned as (x, y, z, 0) a lane.
 template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h, const double* const* xiAt, __m256d* fa,
                              __m256d& pe) {
   const __m256d zero = _mm256_setzero_pd();
-  const __m256d sharedK = _mm256_set1_pd(c.springK), twoK = _mm256_set1_pd(2.0 * c.springK);
   const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
   __m256d xi[4];
   for (std::size_t u = 0; u < 4; ++u) xi[u] = _mm256_maskload_pd(xiAt[u], xyz);
   __m256d fx = zero, fy = zero, fz = zero;
   for (std::size_t r = c.rankStart[blk]; r < c.rankStart[blk + 1]; ++r) {
-    const std::size_t q0 = kLanes * r + h;
-    const std::uint32_t* J = c.rankX + q0;
-    __m256d d[4], dxyz[3];
-    for (std::size_t u = 0; u < 4; ++u) d[u] = _mm256_sub_pd(_mm256_maskload_pd(c.x0 + J[u], xyz), xi[u]);
-    transpose4(d, dxyz);
-    __m256d w;
-    if constexpr (Shared)
-      w = sharedWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankK + q0), sharedK, twoK, pe);
-    else
-      w = springWeights4<Energy, Rsqrt>(dxyz, _mm256_loadu_pd(c.rankRest + q0), _mm256_loadu_pd(c.rankK + q0), pe);
+    __m256d dxyz[3];
+    const __m256d w = terms4<Shared, Energy, Rsqrt>(c, kLanes * r + h, xi, dxyz, pe);
     fx = _mm256_fmadd_pd(w, dxyz[0], fx);
     fy = _mm256_fmadd_pd(w, dxyz[1], fy);
     fz = _mm256_fmadd_pd(w, dxyz[2], fz);
@@ -391,6 +416,33 @@ LD_AVX2 inline void springs4(const BlockStep& c, std::size_t blk, std::size_t h,
   fa[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
   fa[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
   fa[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+// The group's tail ranks into its vertices' forces fv (vertex order, (x, y, z, 0)): 4
+// lanes of a rank side by side, then added to the vertex's sum one after the other
+// with the same fused steps as the blocks' ranks (bit for bit a block padded to its
+// degree; the energy's rounding differs).
+template <bool Shared, bool Energy, bool Rsqrt>
+LD_AVX2 inline void tails4(const BlockStep& c, std::size_t grp, __m256d* fv, __m256d& pe) {
+  const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+  const std::size_t t = kGroup * grp;
+  for (std::uint32_t r = c.tailStart[grp], end = c.tailStart[grp + 1]; r < end;) {
+    const std::uint8_t slot = c.tailSlot[r];
+    const std::size_t v = c.slotVertex[t + slot];
+    const __m256d x = _mm256_maskload_pd(c.x0 + 3 * (t + v), xyz);
+    const __m256d xi[4] = {x, x, x, x};
+    alignas(32) double sum[4], w[4], d[3][4];
+    _mm256_store_pd(sum, fv[v]);
+    for (; r < end && c.tailSlot[r] == slot; ++r)
+      for (std::size_t h = 0; h < kLanes; h += 4) {
+        __m256d dxyz[3];
+        _mm256_store_pd(w, terms4<Shared, Energy, Rsqrt>(c, kLanes * r + h, xi, dxyz, pe));
+        for (int a = 0; a < 3; ++a) _mm256_store_pd(d[a], dxyz[a]);
+        for (std::size_t u = 0; u < 4; ++u)
+          for (int a = 0; a < 3; ++a) sum[a] = std::fma(w[u], d[a][u], sum[a]);
+      }
+    fv[v] = _mm256_load_pd(sum);
+  }
 }
 
 template <bool Shared, bool Energy, bool Rsqrt>
@@ -420,6 +472,7 @@ LD_AVX2 void blockStepAvx2(const BlockStep& c, FinishSums& s) {
       springs4<Shared, Energy, Rsqrt>(c, 2 * grp + q / kLanes, q % kLanes, xiAt, fa, pe);
       for (std::size_t u = 0; u < 4; ++u) fv[v[u]] = fa[u];
     }
+    tails4<Shared, Energy, Rsqrt>(c, grp, fv, pe);
     if (c.extra[grp])
       for (std::size_t u = 0; u < rem; ++u) {
         double* f4 = c.f4 + 4 * (t + u);
@@ -613,20 +666,25 @@ struct Consts512 {
 // the upper half into vinsertf64x4 from memory), and in bounds because every array the
 // step reads positions from has one more double allocated past its last vertex
 // (BlockStep::x0, padPositions in mass_spring.cpp).
+// The rank's difference vectors dxyz and force factors (returned).
 template <bool Shared, bool Energy, bool Rsqrt>
-LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* f,
-                            __m512d& pe) {
+LD_AVX512 inline __m512d terms8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* dxyz,
+                                __m512d& pe) {
   const std::uint32_t* J = c.rankX + q;
   __m256d d[8];
   for (std::size_t u = 0; u < 8; ++u) d[u] = _mm256_loadu_pd(c.x0 + J[u]);
-  __m512d dxyz[3];
   transpose8(d, dxyz);
   for (int a = 0; a < 3; ++a) dxyz[a] = _mm512_sub_pd(dxyz[a], xi[a]);
-  __m512d w;
   if constexpr (Shared)
-    w = sharedWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
+    return sharedWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankK + q), k.sharedK, k.twoK, pe);
   else
-    w = springWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
+    return springWeights8<Energy, Rsqrt>(dxyz, _mm512_load_pd(c.rankRest + q), _mm512_load_pd(c.rankK + q), pe);
+}
+template <bool Shared, bool Energy, bool Rsqrt>
+LD_AVX512 inline void rank8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* f,
+                            __m512d& pe) {
+  __m512d dxyz[3];
+  const __m512d w = terms8<Shared, Energy, Rsqrt>(c, k, q, xi, dxyz, pe);
   for (int a = 0; a < 3; ++a) f[a] = _mm512_fmadd_pd(w, dxyz[a], f[a]);
 }
 
@@ -652,6 +710,33 @@ LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::si
     f[1][q] = b[q];
   }
   pe = _mm512_add_pd(ea, eb);
+}
+
+// The group's tail ranks into the blocks' lane sums f (slot order): the 8 lanes of a
+// rank side by side (the vertex's position broadcast from xi), then added to its sum
+// one after the other with the same fused steps as a block's ranks, so the force is
+// bit for bit the one of a block padded to its degree. (The energy is summed 8 wide:
+// its rounding differs.)
+template <bool Shared, bool Energy, bool Rsqrt>
+LD_AVX512 inline void tails8(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
+                             __m512d (*f)[3], __m512d& pe) {
+  for (std::uint32_t r = c.tailStart[grp], end = c.tailStart[grp + 1]; r < end;) {
+    const std::uint8_t slot = c.tailSlot[r];
+    const std::size_t h = slot / kLanes, lane = slot % kLanes;
+    const __m512i at = _mm512_set1_epi64(static_cast<long long>(lane));
+    __m512d xb[3];
+    for (int a = 0; a < 3; ++a) xb[a] = _mm512_permutexvar_pd(at, xi[h][a]);
+    alignas(64) double sum[3][8], w[8], d[3][8];
+    for (int a = 0; a < 3; ++a) _mm512_store_pd(sum[a], f[h][a]);
+    for (; r < end && c.tailSlot[r] == slot; ++r) {
+      __m512d dxyz[3];
+      _mm512_store_pd(w, terms8<Shared, Energy, Rsqrt>(c, k, kLanes * r, xb, dxyz, pe));
+      for (int a = 0; a < 3; ++a) _mm512_store_pd(d[a], dxyz[a]);
+      for (std::size_t u = 0; u < kLanes; ++u)
+        for (int a = 0; a < 3; ++a) sum[a][lane] = std::fma(w[u], d[a][u], sum[a][lane]);
+    }
+    for (int a = 0; a < 3; ++a) f[h][a] = _mm512_load_pd(sum[a]);
+  }
 }
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded
@@ -768,6 +853,7 @@ LD_AVX512 void blockStepAvx512(const BlockStep& c, FinishSums& s) {
       for (int a = 0; a < 3; ++a) xi[h][a] = _mm512_permutex2var_pd(axis[0][a], sv, axis[1][a]);
     }
     springs8x2<Shared, Energy, Rsqrt>(c, k, grp, xi, f, pe);
+    tails8<Shared, Energy, Rsqrt>(c, k, grp, xi, f, pe);
     const bool extra = c.extra[grp] != 0;
     for (std::size_t h = 0; h < 2 && kLanes * h < rem; ++h) {
       const __m512i vs = lanes8(c.vertexSlot + t + kLanes * h);

@@ -113,6 +113,12 @@ struct BlockStep {
   const std::uint32_t* rankStart = nullptr;  // per block
   const std::uint32_t* rankX = nullptr;      // kLanes per rank
   const double *rankK = nullptr, *rankRest = nullptr;
+  // Tail ranks of group g: [tailStart[g], tailStart[g + 1]) (absolute rank indices, by
+  // slot ascending); all 8 lanes of tail rank r are springs of the vertex in lane slot
+  // tailSlot[r] (0–15), padded like the blocks' ranks (far end the vertex itself,
+  // k = rest = 0). They add to that vertex's sum after its block's ranks.
+  const std::uint32_t* tailStart = nullptr;
+  const std::uint8_t* tailSlot = nullptr;
   const std::uint8_t *slotVertex = nullptr, *vertexSlot = nullptr;  // kGroup per group
   double* f4 = nullptr;
   const std::uint8_t* extra = nullptr;  // per group: f4 holds forces for it

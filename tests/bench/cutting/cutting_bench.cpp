@@ -228,6 +228,7 @@ void BM_PhysicsStepAfterCuts(benchmark::State& state) {
   state.counters["springs"] = static_cast<double>(st.mesh.nEdges());
   state.counters["triangles_cut"] = static_cast<double>(e.stats().trianglesCut);
   state.counters["faces"] = static_cast<double>(st.mesh.nFaces());
+  state.counters["lanes"] = static_cast<double>(st.cache.rankX.size());  // spring lanes of the step, padding included
 }
 BENCHMARK(BM_PhysicsStepAfterCuts)
     ->ArgsProduct({{0, 1000}, {0, 1}, {1}})

@@ -48,9 +48,8 @@ void perSpring(benchmark::State& bs, const Dynamics& d, const mesh::SurfaceMesh&
   bs.counters["triangles"] = static_cast<double>(m.nFaces());
   bs.counters["springs"] = springs;
   // Share of the symplectic step's spring lanes that hold a spring (the rest pad a
-  // block of 8 vertices to its largest degree).
-  if (!d.cache.rankStart.empty() && d.cache.rankStart.back() > 0)
-    bs.counters["lane_fill"] = 2.0 * springs / (8.0 * d.cache.rankStart.back());
+  // block of 8 vertices to its rank count, or a vertex's tail ranks).
+  if (!d.cache.rankX.empty()) bs.counters["lane_fill"] = 2.0 * springs / static_cast<double>(d.cache.rankX.size());
   bs.counters["ns_per_spring"] =
       benchmark::Counter(springs * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }

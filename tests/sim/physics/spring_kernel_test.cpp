@@ -226,6 +226,68 @@ TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnALargeMesh) {
   expectStepMatchesForcePass(130);
 }
 
+// A grid whose middle vertex gets `extra` more springs (the edges across from it split,
+// as a cut's groove bottom fans out), pushed and moving. Built before the tissue is
+// attached: the step's layout is made once, from the whole mesh.
+void fanScene(Params& p, State& s, int extra) {
+  mesh::SurfaceMesh grid = makeGrid(50, 50, 4.0);
+  const mesh::Vertex hub = nearestVertex(grid, Vec3(100, 100, 0));
+  for (int i = 0; i < extra; ++i) {
+    const mesh::Face f = grid.faces(hub)[static_cast<std::size_t>(i) % grid.faces(hub).size()];
+    mesh::Vertex a, b;
+    for (mesh::Vertex v : grid.vertices(f))
+      if (v != hub) (a.isValid() ? b : a) = v;
+    const Vec3 mid = 0.5 * (grid.position(a) + grid.position(b)) + Vec3(0, 0, 0.1 * (i % 3));
+    ASSERT_TRUE(grid.splitEdge(grid.findEdge(a, b), mid).isValid());
+  }
+  p.tissue.gravity = Vec3(0.0, -2.0, -9810.0);
+  s = makeState(std::move(grid), p.tissue);
+  s.mesh.position(hub).z() -= 3.0;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-20.0, 20.0);
+  auto& v = s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
+  for (Vec3& x : v) x = Vec3(u(rng), u(rng), u(rng));
+}
+
+// A vertex of far higher degree than the rest of its block keeps the springs past the
+// block's rank count in tail ranks of its own (instead of padding all 8 lanes to its
+// degree): its group has fewer ranks than it has springs, and on every path, one or two
+// threads, each lane layout, the step still matches the force pass.
+TEST(SpringKernel, AFanVertexSumsItsExtraSpringsInTailRanks) {
+  for (Kernel k : compiledKernels())
+    for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv})
+      for (bool perSpring : {false, true}) {
+        SCOPED_TRACE(std::string(detail::kernelName(k)) + " " + std::string(detail::factorName(fac)) +
+                     (perSpring ? " per-spring" : " shared-K"));
+        ForcedKernel fk(k);
+        ForcedFactor ff(fac);
+        std::optional<ForcedPerSpringLanes> forced;
+        if (perSpring) forced.emplace();
+        std::vector<Vec3> oneThread;
+        for (int threads : {1, 2}) {
+          Params p;
+          p.threads = threads;
+          State s;
+          fanScene(p, s, 24);
+          const mesh::Vertex hub = nearestVertex(s.mesh, Vec3(100, 100, -3));
+          ASSERT_EQ(s.mesh.edges(hub).size(), 30u);
+          EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
+          const auto& c = s.cache;
+          ASSERT_EQ(c.springs.size(), c.nCsr) << "one layout from the whole mesh";
+          const std::size_t g = hub.idx() / detail::kGroup;
+          const std::uint32_t ranks = c.rankStart[2 * g + 2] - c.rankStart[2 * g] + c.tailStart[g + 1] - c.tailStart[g];
+          EXPECT_LT(ranks, 16u) << "padding both blocks to 30 springs would take 36 ranks";
+          EXPECT_GT(c.tailStart[g + 1], c.tailStart[g]);
+          EXPECT_EQ(c.tailSlot[c.tailStart[g]], c.vertexSlot[hub.idx()]);
+          EXPECT_LT(c.rankX.size(), 11 * 2 * c.nCsr / 10) << "lanes: at most 10 % padding";
+          if (threads == 1)
+            oneThread = s.mesh.positions();
+          else
+            EXPECT_EQ(s.mesh.positions(), oneThread) << "two threads must be bit-identical to one";
+        }
+      }
+}
+
 TEST(SpringKernel, ForcesAndMonitoredStepsAgreeAcrossPaths) {
   Params p;
   std::vector<Vec3> refForces;
