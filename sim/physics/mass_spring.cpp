@@ -321,13 +321,18 @@ void pointLaneAtItself(Cache& c, std::size_t blk, std::size_t lane, std::size_t 
 // A tail's reduction (three horizontal sums and a masked add) in ranks' worth of work.
 constexpr long kTailCost = 1;
 
+// Tail ranks of a lane with `degree` springs in a block of `ranks` ranks.
+long tailRanks(long degree, long ranks) {
+  constexpr long L = static_cast<long>(detail::kLanes);
+  return degree > ranks ? (degree - ranks + L - 1) / L : 0;
+}
+
 // Ranks of a block whose lanes have degrees deg (descending; −1: no vertex).
 std::uint32_t blockRanks(const long* deg) {
-  constexpr long L = static_cast<long>(detail::kLanes);
   long best = std::max(0L, deg[0]), bestCost = best;
   for (long r = best - 1; r >= 0; --r) {
     long cost = r;
-    for (std::size_t u = 0; u < detail::kLanes && deg[u] > r; ++u) cost += (deg[u] - r + L - 1) / L + kTailCost;
+    for (std::size_t u = 0; u < detail::kLanes && deg[u] > r; ++u) cost += tailRanks(deg[u], r) + kTailCost;
     if (cost < bestCost) {
       best = r;
       bestCost = cost;
@@ -373,9 +378,7 @@ void buildBlocks(Cache& c, std::size_t n) {
       for (std::size_t u = 0; u < L; ++u) deg[u] = degree(G * g + order[L * h + u]);
       const std::uint32_t r = blockRanks(deg);
       c.rankStart[2 * g + h + 1] = c.rankStart[2 * g + h] + r;
-      for (std::size_t u = 0; u < L && deg[u] > static_cast<long>(r); ++u)
-        tails += static_cast<std::uint32_t>((deg[u] - static_cast<long>(r) + static_cast<long>(L) - 1) /
-                                            static_cast<long>(L));
+      for (std::size_t u = 0; u < L; ++u) tails += static_cast<std::uint32_t>(tailRanks(deg[u], r));
     }
     c.tailStart[g + 1] = c.tailStart[g] + tails;
   }
@@ -409,8 +412,7 @@ void buildBlocks(Cache& c, std::size_t n) {
       const std::size_t blk = 2 * g + slot / L, lane = slot % L;
       const std::uint32_t r = c.rankStart[blk + 1] - c.rankStart[blk];
       pointLaneAtItself(c, blk, lane, i);
-      const std::uint32_t past = adjStart[i + 1] - adjStart[i] > r ? adjStart[i + 1] - adjStart[i] - r : 0;
-      const std::uint32_t own = static_cast<std::uint32_t>((past + L - 1) / L);
+      const auto own = static_cast<std::uint32_t>(tailRanks(degree(i), r));
       for (std::uint32_t t = tail; t < tail + own; ++t) {
         c.tailSlot[t] = static_cast<std::uint8_t>(slot);
         std::fill_n(c.rankX.begin() + static_cast<std::ptrdiff_t>(L * t), L, static_cast<std::uint32_t>(3 * i));

@@ -660,13 +660,13 @@ struct Consts512 {
 // far ends (x, y, z) by three-lane loads, transposed to axis registers (16 loads and
 // shuffles beat gathers here), summed per lane in registers.
 // One rank of 8 lanes (lane q of the ranks: far-end offsets, k and, per-spring
-// layout, rest) into the lanes' sums.
+// layout, rest): terms8 gives its difference vectors dxyz and force factors (returned),
+// rank8 adds them into the lanes' sums.
 // The far ends are plain 4-double loads (x, y, z and the next vertex's x, which the
 // transpose drops): 5-6 % faster than masked three-lane loads on a Zen 5 (GCC can fold
 // the upper half into vinsertf64x4 from memory), and in bounds because every array the
 // step reads positions from has one more double allocated past its last vertex
 // (BlockStep::x0, padPositions in mass_spring.cpp).
-// The rank's difference vectors dxyz and force factors (returned).
 template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX512 inline __m512d terms8(const BlockStep& c, const Consts512& k, std::size_t q, const __m512d* xi, __m512d* dxyz,
                                 __m512d& pe) {
