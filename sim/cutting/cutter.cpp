@@ -2563,9 +2563,12 @@ struct CutEngine::Impl {
       // the piece attached. Only a degenerate loop is refused, unless the tips are on
       // the far side already (snapped onto its edge: the walk runs down the rung).
       if (wallCutOut && !(q >= sliverHeight())) return false;
-      if (!(q > 1e-3 * p.snapDistance)) {
-        if (!mayOpenRung || !openRung(A.object, loop)) return false;
+      // A loop too thin to cap without a sliver (a crescent of a tip left just off the
+      // far edge) tries the rung's opening first, when that makes thicker holes.
+      if (!(q >= sliverHeight()) && mayOpenRung && openRung(A.object, loop, std::max(q, 1e-3 * p.snapDistance))) {
         cuts.pop_back();  // gone with its faces
+      } else if (!(q > 1e-3 * p.snapDistance)) {
+        return false;
       }
     }
     std::vector<Vertex> touched = loop;
@@ -2593,8 +2596,9 @@ struct CutEngine::Impl {
 
   // The cut-out loop (front rung loop.back() - loop.front(), and a walk along it) has no
   // area: the two wall triangles on the rung go, so that each side's hole reaches from
-  // their far corner to the walk. False (mesh unchanged) when those holes are no better.
-  bool openRung(int obj, const std::vector<Vertex>& loop) {
+  // their far corner to the walk. False (mesh unchanged) when a hole is no thicker than
+  // `than` (its best triangulation's smallest height).
+  bool openRung(int obj, const std::vector<Vertex>& loop, double than) {
     SurfaceMesh& m = meshOf(obj);
     const Edge rung = m.findEdge(loop.back(), loop.front());
     if (!rung.isValid() || m.isBoundary(rung)) return false;
@@ -2612,7 +2616,7 @@ struct CutEngine::Impl {
         for (Vertex x : hole) std::cerr << " " << x << "(" << m.position(x).transpose() << ")";
         std::cerr << "\n";
       }
-      if (!(loopQuality(m, hole) > 1e-3 * p.snapDistance)) return false;
+      if (!(loopQuality(m, hole) > than)) return false;
     }
     for (Face f : walls) m.deleteFace(f);
     bvhs[static_cast<std::size_t>(indexOf(obj))].removeFaces(m, walls);

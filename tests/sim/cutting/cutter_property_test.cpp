@@ -689,6 +689,15 @@ TEST(CutterPropertySeeds, CylinderDeepen23000HalvesStayAboveTheFloor) {
   EXPECT_EQ(runDeepenSeed(shapes()[3], 23000), "");
 }
 
+// disc.obj 9007 (bundled model, LD_PROPERTY_SCALE=3): the cut-out over the disc's
+// rounded rim ended with a tip 0.17 mm off the far side's edge; its loop (3 vertices,
+// nearly on a line) was capped with a 0.0073 mm triangle. A loop under the sliver height
+// now opens the rung first when the holes that leaves are thicker (here 0.115 mm).
+TEST(CutterPropertySeeds, Disc9007ThinCutOutLoopOpensTheRungInsteadOfASliverCap) {
+  const mesh::SurfaceMesh m = io::readMesh(ld::test::resourcesDir() / "models" / "disc.obj");
+  EXPECT_EQ(runSeed(Shape{"disc.obj", [m] { return m; }}, 9007, 2), "");
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
