@@ -156,6 +156,7 @@ void PhysicsSession::run() {
   physics::settle(params_, bodies_[0].dynamics, meshOf(bodies_[0].id), so);
 #ifdef LD_GUI_HAVE_CUTTING
   engine_->verticesMoved(bodies_[0].id);
+  engine_->settleAdded();  // marks the settled tissue's vertices: later calls settle what cuts add
 #endif
   settleProgress_ = 1.0;
   publish();
@@ -257,6 +258,7 @@ PhysicsSession::Stats PhysicsSession::stats() const {
   s.resets = resets_.load();
   s.nanFrames = nanFrames_.load();
   s.resting = resting_.load();
+  s.settledAdded = static_cast<std::uint64_t>(settledAdded_.load());
   return s;
 }
 
@@ -528,6 +530,9 @@ void PhysicsSession::cutSample(const Eigen::Vector3d& surface, const Eigen::Vect
     strokeOpen_ = true;
     try {
       r = engine_->step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
+      // Moving under the blade: what the sample added settles where its springs balance,
+      // except the tips on the blade, as `task run --physics on` and `cut --physics on` do.
+      if (!holdWhileCutting_) settledAdded_ += static_cast<long>(engine_->settleAdded(r.preview));
     } catch (const std::exception& e) {
       // The engine refused this sample; the stroke goes on with the next one.
       std::lock_guard lock(errorMutex_);
@@ -546,6 +551,19 @@ void PhysicsSession::endCut() {
     cutting::StepResult r;
     try {
       r = engine_->endStroke(instruments::Hand::Right);
+      if (!holdWhileCutting_) {
+        settledAdded_ += static_cast<long>(engine_->settleAdded());  // the tips too, off the blade now
+      } else {
+        // Held still, the stroke's additions open with the tissue's own motion once it
+        // moves again (as on the runner's still tissue): marked settled, not moved, so
+        // that a later stroke with the hold off does not settle them all at once.
+        physics::TissueParams mark = params_.tissue;
+        mark.settleSweeps = 0;
+        for (const auto& o : engine_->objects()) {  // freed pieces too (not bodies yet)
+          mesh::SurfaceMesh& m = meshOf(o.id);
+          if (physics::hasTissueProperties(m)) physics::settleVertices(m, physics::unsettledVertices(m), mark);
+        }
+      }
     } catch (const std::exception& e) {
       std::lock_guard lock(errorMutex_);
       lastCutError_ = e.what();

@@ -116,7 +116,9 @@ class PhysicsSession {
   // the cutter closes cut loops (and frees pieces) reliably only on tissue that does not
   // move under the blade (corner strokes through a moving, opening tissue often leave
   // the piece attached: a cutter limit, measured). The wound opens when the blade
-  // lifts. Off, the tissue keeps moving under the blade.
+  // lifts. Off, the tissue keeps moving under the blade, and what each sample adds
+  // settles at once where its springs balance (CutEngine::settleAdded, as `task run
+  // --physics on` does; Stats::settledAdded counts the vertices).
   void setHoldWhileCutting(bool on);
   [[nodiscard]] long trianglesCut() const { return trianglesCut_.load(); }
   [[nodiscard]] int objectCount() const { return objectCount_.load(); }
@@ -139,6 +141,7 @@ class PhysicsSession {
     std::uint64_t resets = 0;     // ... or by zeroing velocities (last resort)
     std::uint64_t nanFrames = 0;  // published frames with a non-finite position
     bool resting = false;         // at rest: the loop sleeps until a command comes
+    std::uint64_t settledAdded = 0;  // vertices cuts added that settled at once (hold off)
   };
   [[nodiscard]] Stats stats() const;
 
@@ -206,7 +209,7 @@ class PhysicsSession {
 
   std::atomic<bool> stop_{false}, settled_{false}, resting_{false};
   std::atomic<double> settleProgress_{0.0}, restSince_{0.0};
-  std::atomic<long> trianglesCut_{0};
+  std::atomic<long> trianglesCut_{0}, settledAdded_{0};
   std::atomic<int> objectCount_{1};
   std::atomic<double> pushForce_{0.0};
   std::atomic<std::uint64_t> warnings_{0}, implicit_{0}, resets_{0}, late_{0}, steps_{0}, nanFrames_{0};

@@ -3857,9 +3857,10 @@ void CutEngine::verticesMoved(int id, std::span<const std::uint32_t> vertices) {
 
 void CutEngine::verticesMoved(int id) { (void)object(id); }
 
-void CutEngine::settleAdded(std::span<const PreviewSegment> preview) {
+std::size_t CutEngine::settleAdded(std::span<const PreviewSegment> preview) {
   std::vector<Vec3> tips;
   std::vector<std::uint32_t> moved;
+  std::size_t settled = 0;
   for (std::size_t i = 0; i < objects().size(); ++i) {
     const int id = objects()[i].id;
     mesh::SurfaceMesh& m = meshToMove(id);
@@ -3870,10 +3871,12 @@ void CutEngine::settleAdded(std::span<const PreviewSegment> preview) {
     const std::vector<Vertex> fresh = physics::unsettledVertices(m, tips);
     if (fresh.empty()) continue;
     physics::settleVertices(m, fresh, params().tissue);
+    settled += fresh.size();
     moved.clear();
     for (Vertex v : fresh) moved.push_back(static_cast<std::uint32_t>(v.idx()));
     verticesMoved(id, moved);
   }
+  return settled;
 }
 
 void CutEngine::verticesMovedWithin(int id, double maxMove) {

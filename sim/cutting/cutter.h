@@ -206,7 +206,8 @@ class CutEngine {
   // with tissue properties, except the tracks' tips on the blade (the `from` points of
   // the sample's preview), and the collision tree hears of the moves. The first call on
   // an object only marks its vertices settled: call it once before the first sample.
-  void settleAdded(std::span<const PreviewSegment> preview = {});
+  // Returns how many vertices it settled (moved).
+  std::size_t settleAdded(std::span<const PreviewSegment> preview = {});
 
   // One sample of one hand. Scalpel edges cut on contact, L-hook edges while the
   // pedal is down, grasper jaws never (contacts only).

@@ -157,6 +157,54 @@ TEST(PhysicsSession, HoldsTheTissueStillWhileTheBladeIsInIt) {
   session.endCut();
 }
 
+// With the hold off the tissue moves under the blade, and what each sample adds settles
+// at once where its springs balance (as `task run --physics on` does); held, nothing is
+// settled (the wound opens with the tissue's own motion once the blade lifts). Both
+// cuts open, and nothing goes non-finite.
+TEST(PhysicsSession, WithTheHoldOffWhatACutAddsSettlesAtOnce) {
+  if (!PhysicsSession::cuttingAvailable()) GTEST_SKIP() << "no cutting module in this build";
+  PhysicsSession session(ld::io::readMesh(ld::test::resourcesDir() / "models" / "tissue_slab.obj"));
+  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
+  session.sync();
+  ld::gui::SceneFrame before;
+  bool topo = false;
+  ASSERT_TRUE(session.update(before, topo));
+  const float top = before.objects.at(0).mesh.bounds().max[2];
+
+  // Off the grid's lines (y = 0.4), so that the path splits edges: new vertices.
+  cutAlong(session, -30, -5, 0.4, top, 8);  // held (the default)
+  session.sync();
+  EXPECT_EQ(session.stats().settledAdded, 0u) << "held still, the cut's additions were moved";
+  const long heldCut = session.trianglesCut();
+  ASSERT_GT(heldCut, 0);
+  ld::gui::SceneFrame held;
+  ASSERT_TRUE(session.update(held, topo));
+
+  session.setHoldWhileCutting(false);
+  cutAlong(session, 5, 30, 0.4, top, 8);
+  session.sync();
+  ASSERT_GT(session.trianglesCut(), heldCut);
+  // The path's edge crossings on both layers (two a cell), not only its two ends; and
+  // only what this stroke added (the held stroke's vertices were marked, not left over).
+  ld::gui::SceneFrame live;
+  ASSERT_TRUE(session.update(live, topo));
+  const auto added = live.objects.at(0).mesh.positions.size() - held.objects.at(0).mesh.positions.size();
+  EXPECT_GT(session.stats().settledAdded, 20u) << "the cut's additions on the moving tissue did not settle";
+  EXPECT_LE(session.stats().settledAdded, added) << "more settled than the live stroke added";
+
+  session.advance(1.0);
+  session.sync();
+  ld::gui::SceneFrame after;
+  ASSERT_TRUE(session.update(after, topo));
+  const auto meshes = meshesOf(after);
+  EXPECT_GT(ld::gui::test::lipGap(meshes, -17.5F, 0.4F), 1.0) << "the held cut did not open";
+  EXPECT_GT(ld::gui::test::lipGap(meshes, 17.5F, 0.4F), 1.0) << "the live cut did not open";
+  const auto st = session.stats();
+  EXPECT_EQ(st.nanFrames, 0u);
+  for (const auto& m : meshes)
+    for (const auto& p : m.positions) ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]));
+}
+
 TEST(PhysicsSession, AdvanceRunsStepsAtOnceAndStatsCountThem) {
   PhysicsSession session(ld::physics::makeSlab(40.0, 30.0, 5.0, 2.5));
   ASSERT_TRUE(waitFor([&] { return session.settled(); }));
