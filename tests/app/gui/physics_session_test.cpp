@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <memory>
 #include <thread>
 
 #include "sim/io/mesh_io.h"
@@ -81,14 +82,24 @@ void cutAlong(PhysicsSession& s, double x0, double x1, double y, double top, dou
   s.endCut();
 }
 
+// The default slab's session once it has settled, and its first frame after that.
+std::unique_ptr<PhysicsSession> settledSlab(ld::gui::SceneFrame& first) {
+  auto session =
+      std::make_unique<PhysicsSession>(ld::io::readMesh(ld::test::resourcesDir() / "models" / "tissue_slab.obj"));
+  EXPECT_TRUE(waitFor([&] { return session->settled(); }));
+  session->sync();
+  bool topo = false;
+  EXPECT_TRUE(session->update(first, topo));
+  return session;
+}
+
 TEST(PhysicsSession, ACutThroughOpensBySeveralMillimetresAndTheUncutTissueStaysPut) {
   if (!PhysicsSession::cuttingAvailable()) GTEST_SKIP() << "no cutting module in this build";
-  PhysicsSession session(ld::io::readMesh(ld::test::resourcesDir() / "models" / "tissue_slab.obj"));
-  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
-  session.sync();
   ld::gui::SceneFrame before;
+  const auto owned = settledSlab(before);
+  PhysicsSession& session = *owned;
+  ASSERT_FALSE(before.objects.empty());
   bool topo = false;
-  ASSERT_TRUE(session.update(before, topo));
   const RenderMesh tissue = before.objects.at(0).mesh;
 
   // 60 mm through the 5 mm slab along y = 0, inside the rim: one object, a slit that
@@ -163,12 +174,11 @@ TEST(PhysicsSession, HoldsTheTissueStillWhileTheBladeIsInIt) {
 // cuts open, and nothing goes non-finite.
 TEST(PhysicsSession, WithTheHoldOffWhatACutAddsSettlesAtOnce) {
   if (!PhysicsSession::cuttingAvailable()) GTEST_SKIP() << "no cutting module in this build";
-  PhysicsSession session(ld::io::readMesh(ld::test::resourcesDir() / "models" / "tissue_slab.obj"));
-  ASSERT_TRUE(waitFor([&] { return session.settled(); }));
-  session.sync();
   ld::gui::SceneFrame before;
+  const auto owned = settledSlab(before);
+  PhysicsSession& session = *owned;
+  ASSERT_FALSE(before.objects.empty());
   bool topo = false;
-  ASSERT_TRUE(session.update(before, topo));
   const float top = before.objects.at(0).mesh.bounds().max[2];
 
   // Off the grid's lines (y = 0.4), so that the path splits edges: new vertices.
