@@ -55,6 +55,11 @@ PhysicsSession::PhysicsSession(mesh::SurfaceMesh mesh, Options options) : params
 #ifdef LD_GUI_HAVE_CUTTING
   cutting::CutParams cp;
   cp.tissue = params_.tissue;
+  // No collision margin (unlike `cut --physics on`, one step per sample): here a mouse
+  // sample follows ~16 steps, and the lazy full refit before it is cheaper than a margin
+  // refit after each step. Tried (2026-12-05, slab, hold off, 16 steps between 51 samples
+  // of a cut beside an opening wound): margin 0.25 with summed travel 15.3 ms of collision
+  // work (818 margin refits), margin 0 2.2 ms (52 full refits).
   engine_ = std::make_unique<cutting::CutEngine>(cp);
   const int id = engine_->addObject(std::move(mesh));
   bodies_.push_back(Body{id, {}, 0});
