@@ -2946,10 +2946,13 @@ struct CutEngine::Impl {
   }
 
   // ---- separation -----------------------------------------------------------------------------
+  // Ends every open cut on obj where it is, its pending step dropped: terminating it
+  // (a face split and an extension) here, on a piece about to come free, once left an
+  // edge with four faces (property seed slab 1274, a flat piece with no volume).
   void endTracksOn(int obj) {
     for (auto& hs : hands)
       for (auto& t : hs.tracks)
-        if (t.alive && t.object == obj) terminate(t);
+        if (t.alive && t.object == obj) end(t);
   }
 
   // Where an object's mesh journal stood when the object was last known to be one
@@ -3488,6 +3491,9 @@ struct CutEngine::Impl {
     for (const auto& o : objects)
       for (Vertex v : o.mesh.vertices())
         if (!isManifoldVertex(o.mesh, v)) std::cerr << "PINCH after " << where << " at " << v << "\n";
+    for (const auto& o : objects)  // (O(mesh): debugging only)
+      if (const auto rep = o.mesh.validate(); !rep.ok())
+        std::cerr << "INVALID after " << where << " obj " << o.id << ": " << rep.message() << "\n";
   }
 
   void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {

@@ -698,6 +698,13 @@ TEST(CutterPropertySeeds, Disc9007ThinCutOutLoopOpensTheRungInsteadOfASliverCap)
   EXPECT_EQ(runSeed(Shape{"disc.obj", [m] { return m; }}, 9007, 2), "");
 }
 
+// slab 1274 (LD_PROPERTY_SCALE=10): a cut-out freed a flat piece of no volume (two bottom
+// triangles and their caps) while another track was still open on the slab; ending that
+// track with its last step (a face split and an extension) on the piece about to come
+// free left an edge with four faces, and both freed pieces failed validate(). Tracks on
+// an object that separates now end where they are: no edit runs inside a separation.
+TEST(CutterPropertySeeds, Slab1274SeparationEndsOpenTracksWithoutAnEdit) { EXPECT_EQ(runSeed(shapes()[0], 1274), ""); }
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
