@@ -542,6 +542,9 @@ struct CutEngine::Impl {
       std::cerr << "\n";
     }
     const Vertex v = m.splitEdge(e, q);
+    // No split keeps a two-triangle pillow (a flat piece a cut freed) manifold: the
+    // point goes to the edge's nearer end, as a snap would.
+    if (!v.isValid()) return t < 0.5 ? a : b;
     if (tissue(obj)) physics::initVertexOnEdge(m, handlesOf(m), v, a, b, t, p.tissue);
     touchInitialised(obj, v);
     traceThin(obj, {v}, hBefore < 0.25 * p.snapDistance ? "splitEdge/inherited" : "splitEdge/new");

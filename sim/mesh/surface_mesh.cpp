@@ -409,6 +409,7 @@ Vertex SurfaceMesh::splitEdge(Edge e, const Point& p) {
   check(e, "splitEdge");
   const Vertex a = everts_[e][0], b = everts_[e][1];
   std::array<Face, 2> fs = efaces_[e];
+  if (fs[0].isValid() && fs[1].isValid() && oppositeVertex(fs[0], e) == oppositeVertex(fs[1], e)) return Vertex();
   const Vertex m = addVertex(p);
   std::array<std::array<Vertex, 3>, 2> tri{};
   for (std::size_t k = 0; k < 2; ++k) {

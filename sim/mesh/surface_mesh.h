@@ -273,7 +273,9 @@ class SurfaceMesh {
   // Inserts a vertex at p on edge e and splits each of its one or two faces in two.
   // Pre: e live. Post: e is replaced by two edges (a,m), (m,b) that inherit e's
   // properties; each split face keeps its handle for the half next to e's first
-  // vertex and a new face inherits its properties. Returns m.
+  // vertex and a new face inherits its properties. Returns m; an invalid handle, the
+  // mesh unchanged, when e's two faces have the same opposite vertex (they are then
+  // a closed two-triangle pillow): the edge from m to it would have four faces.
   Vertex splitEdge(Edge e, const Point& p);
 
   // Inserts a vertex at p inside f and splits f into three (f keeps one part, two new

@@ -705,6 +705,17 @@ TEST(CutterPropertySeeds, Disc9007ThinCutOutLoopOpensTheRungInsteadOfASliverCap)
 // an object that separates now end where they are: no edit runs inside a separation.
 TEST(CutterPropertySeeds, Slab1274SeparationEndsOpenTracksWithoutAnEdit) { EXPECT_EQ(runSeed(shapes()[0], 1274), ""); }
 
+// slab 2359 and disc deepen 22417 (LD_PROPERTY_SCALE=25): a cut-out freed a flat piece
+// of no volume, two triangles on the same three vertices (a pillow); a later stroke cut
+// it (a start and its last step, or a slide-in pair) through a point next to its edge,
+// and the split of that edge joined the new vertex to the pillow's third corner by an
+// edge with four faces (validate() failed). SurfaceMesh::splitEdge now refuses such an
+// edge, and the cutter takes the edge's nearer end instead.
+TEST(CutterPropertySeeds, Slab2359CuttingAFreedPillowKeepsItManifold) { EXPECT_EQ(runSeed(shapes()[0], 2359), ""); }
+TEST(CutterPropertySeeds, DiscDeepen22417SlideInOnAFreedPillowKeepsItManifold) {
+  EXPECT_EQ(runDeepenSeed(shapes()[2], 22417), "");
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {

@@ -159,6 +159,39 @@ TEST(SurfaceMesh, SplitBoundaryEdgeKeepsBoundaryAndOrientation) {
   EXPECT_EQ(loops[0].size(), 5u);
 }
 
+// A closed two-triangle pillow (what a cut can free: a flat piece of no volume): both
+// faces of every edge have the same opposite vertex, so a split would join the new
+// vertex to it by an edge with four faces. splitEdge refuses and changes nothing; the
+// pillow's faces can still be split inside.
+TEST(SurfaceMesh, SplitEdgeOfATwoTrianglePillowIsRefused) {
+  SurfaceMesh m;
+  const Vertex a = m.addVertex({0, 0, 0}), b = m.addVertex({1, 0, 0}), c = m.addVertex({0, 1, 0});
+  ASSERT_TRUE(m.addFace(a, b, c).isValid());
+  ASSERT_TRUE(m.addFace(a, c, b).isValid());
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_VALID(m);
+  const std::uint64_t version = m.topologyVersion();
+  for (Edge e : std::vector<Edge>(m.edges().begin(), m.edges().end())) {
+    EXPECT_FALSE(m.splitEdge(e, 0.5 * (m.position(m.vertex(e, 0)) + m.position(m.vertex(e, 1)))).isValid());
+    EXPECT_EQ(m.nVertices(), 3u);
+    EXPECT_EQ(m.nEdges(), 3u);
+    EXPECT_EQ(m.nFaces(), 2u);
+    EXPECT_EQ(m.topologyVersion(), version);
+    EXPECT_VALID(m);
+  }
+  const Vertex inside = m.splitFace(Face(0), m.centroid(Face(0)));
+  EXPECT_TRUE(inside.isValid());
+  EXPECT_EQ(m.nFaces(), 4u);
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_VALID(m);
+  // One face of the edge is now split: its faces' opposite vertices differ, and the edge splits.
+  const Vertex mid = m.splitEdge(m.findEdge(a, b), {0.5, 0, 0});
+  EXPECT_TRUE(mid.isValid());
+  EXPECT_EQ(m.nFaces(), 6u);
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_VALID(m);
+}
+
 TEST(SurfaceMesh, SplitFaceMakesThree) {
   SurfaceMesh m = tetrahedron();
   const Vertex c = m.splitFace(Face(0), m.centroid(Face(0)));
