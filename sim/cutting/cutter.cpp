@@ -995,7 +995,12 @@ struct CutEngine::Impl {
           const Vec3 n = rawNormal(m, m.face(eOut, 0)).normalized();
           want = pN - p.snapDistance * (n.allFinite() ? n : Vec3::UnitZ());
         }
-        auto quality = [&](const Vec3& b) { return std::min(height(pv, pN, b), height(pv, po, b)); };
+        // (Between the layers with N and o joined the apex also keeps off their edge: on
+        // it, as halfway between them, the cut-out loop over that edge has no area.)
+        auto quality = [&](const Vec3& b) {
+          const double q = std::min(height(pv, pN, b), height(pv, po, b));
+          return paired && joinedNO ? std::min(q, height(pN, po, b)) : q;
+        };
         apexPos = want;
         qApex = quality(want);
         for (const Vec3& c : {Vec3(0.5 * (want + po)), Vec3(0.5 * (pN + po)), Vec3((pv + pN + po) / 3.0)}) {

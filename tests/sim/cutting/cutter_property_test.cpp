@@ -716,6 +716,20 @@ TEST(CutterPropertySeeds, DiscDeepen22417SlideInOnAFreedPillowKeepsItManifold) {
   EXPECT_EQ(runDeepenSeed(shapes()[2], 22417), "");
 }
 
+// Moving-tissue strokes replayed still (runMovingSeed without physics) that left their
+// piece attached (LD_PROPERTY_SCALE=50: 9 of 1600; these 4 fixed): the blade left the slab
+// with both layers' tips on one vertical edge of the side face, and the last step put the
+// wall's new vertex halfway between them, on that edge; the cut-out's loop then had no
+// area and could not close. That vertex now keeps off the tips' edge (else the front
+// waits), and the piece comes free.
+TEST(CutterPropertySeeds, MovingStillExitAlongASideEdgeFreesThePiece) {
+  for (unsigned seed : {40077u, 40859u, 40889u, 41506u}) {
+    const MovingRun r = runMovingSeed(seed, true);
+    EXPECT_EQ(r.error, "") << "seed " << seed;
+    EXPECT_TRUE(r.separated) << "seed " << seed;
+  }
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
