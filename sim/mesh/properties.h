@@ -4,6 +4,7 @@
 // copied and compacted together with the element count.
 #include <algorithm>
 #include <cassert>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "sim/mesh/mesh_error.h"
+#include "sim/mesh/small_vector.h"
 
 namespace ld::mesh {
 
@@ -33,6 +35,18 @@ void copyPropertyData(const std::vector<std::vector<E>>& from, std::vector<std::
     auto& copy = to.emplace_back();
     if (list.empty()) continue;
     copy.reserve(list.size() + kSlack);
+    copy.assign(list.begin(), list.end());
+  }
+}
+// Small vectors the same, where they are on the heap (inline ones have their room).
+template <class E, std::uint32_t N>
+void copyPropertyData(const std::vector<SmallVector<E, N>>& from, std::vector<SmallVector<E, N>>& to) {
+  constexpr std::size_t kSlack = 4;
+  to.clear();
+  to.reserve(from.size());
+  for (const auto& list : from) {
+    auto& copy = to.emplace_back();
+    if (list.size() > N) copy.reserve(list.size() + kSlack);
     copy.assign(list.begin(), list.end());
   }
 }

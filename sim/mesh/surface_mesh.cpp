@@ -44,7 +44,7 @@ void SurfaceMesh::initBuiltins() {
   eprops_ = PropertyContainer();
   fprops_ = PropertyContainer();
   vprops_.add<Point>("v:point", Point::Zero());
-  vprops_.add<std::vector<Edge>>("v:edges", {});
+  vprops_.add<EdgeList>("v:edges", {});
   vprops_.add<std::uint8_t>("v:deleted", 0);
   eprops_.add<std::array<Vertex, 2>>("e:vertices", {});
   eprops_.add<std::array<Face, 2>>("e:faces", {});
@@ -60,7 +60,7 @@ void SurfaceMesh::initBuiltins() {
 
 void SurfaceMesh::bindProperties() {
   points_ = getVertexProperty<Point>("v:point");
-  vedges_ = getVertexProperty<std::vector<Edge>>("v:edges");
+  vedges_ = getVertexProperty<EdgeList>("v:edges");
   vdeleted_ = getVertexProperty<std::uint8_t>("v:deleted");
   everts_ = getEdgeProperty<std::array<Vertex, 2>>("e:vertices");
   efaces_ = getEdgeProperty<std::array<Face, 2>>("e:faces");
@@ -222,13 +222,6 @@ Vertex SurfaceMesh::addVertex(const Point& p) {
   Vertex v(verticesSize() - 1);
   record(journalV_, v);
   return v;
-}
-
-// A new vertex's edge list gets room for a usual valence at once, instead of
-// growing 1, 2, 4, 8 (one allocation instead of four). Out of line: the edits call
-// addEdgeToVertex (inline, in the header) many times per edit.
-void SurfaceMesh::growEdgeList(std::vector<Edge>& list) {
-  list.reserve(list.capacity() == 0 ? 8 : 2 * list.capacity());
 }
 
 Edge SurfaceMesh::newEdge(Vertex a, Vertex b) {
@@ -480,7 +473,7 @@ std::vector<Face> SurfaceMesh::faces(Vertex v) const {
 // order (first seen along the edge list).
 void SurfaceMesh::faces(Vertex v, std::vector<Face>& out) const {
   out.clear();
-  const std::vector<Edge>& es = vedges_[v];
+  const EdgeList& es = vedges_[v];
   constexpr std::size_t kSlots = 512;  // at most 2 faces an edge, the table half full
   if (es.size() <= 16) {
     // Into a stack buffer, then one copy (no push_back per face).
@@ -558,7 +551,7 @@ Vertex SurfaceMesh::splitVertex(Vertex v, std::span<const Face> fan) {
   // (fan face, edge it leaves, the copy it takes instead)
   auto& swaps = scratch_.swaps;
   swaps.clear();
-  std::vector<Edge>& list = vedges_[v];
+  EdgeList& list = vedges_[v];
   std::size_t keep = 0;
   for (std::size_t i = 0; i < list.size(); ++i) {
     const Edge e = list[i];
@@ -995,7 +988,7 @@ SurfaceMesh SurfaceMesh::extract(std::span<const Face> faces) const {
   out.fprops_ = fprops_.gather(fi);
   out.bindProperties();
   for (auto& list : out.vedges_.vector()) {
-    std::erase_if(list, [&](Edge e) { return emap.find(e.idx()) == IndexMap::kNone; });
+    list.eraseIf([&](Edge e) { return emap.find(e.idx()) == IndexMap::kNone; });
     for (Edge& e : list) e = Edge(emap.find(e.idx()));
   }
   for (auto& ev : out.everts_.vector())

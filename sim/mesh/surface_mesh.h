@@ -30,11 +30,15 @@
 #include "sim/mesh/handles.h"
 #include "sim/mesh/mesh_error.h"
 #include "sim/mesh/properties.h"
+#include "sim/mesh/small_vector.h"
 
 namespace ld::mesh {
 
 using Point = Eigen::Vector3d;
 using Normal = Eigen::Vector3d;
+// A vertex's incident edges: up to 10 kept in the vertex array itself (a usual
+// valence after a few edits), more on the heap.
+using EdgeList = SmallVector<Edge, 10>;
 
 template <class T>
 using VertexProperty = Property<Vertex, T>;
@@ -311,7 +315,7 @@ class SurfaceMesh {
   [[nodiscard]] Vertex vertex(Edge e, int i) const { return everts_[e][static_cast<std::size_t>(i)]; }
   // i = 0 is always a live face; i = 1 is invalid for a boundary edge.
   [[nodiscard]] Face face(Edge e, int i) const { return efaces_[e][static_cast<std::size_t>(i)]; }
-  [[nodiscard]] const std::vector<Edge>& edges(Vertex v) const { return vedges_[v]; }
+  [[nodiscard]] const EdgeList& edges(Vertex v) const { return vedges_[v]; }
   [[nodiscard]] std::vector<Face> faces(Vertex v) const;  // incident faces, each once
   // The same into a caller's buffer (cleared first), so that a loop need not allocate.
   void faces(Vertex v, std::vector<Face>& out) const;
@@ -450,13 +454,7 @@ class SurfaceMesh {
   Face newFaceCopy(Face from);
   Edge linkNewEdge(Vertex a, Vertex b);  // the tail of newEdge / newEdgeCopy
   Face journalNewFace();
-  void addEdgeToVertex(Vertex v, Edge e) {
-    auto& list = vedges_[v];
-    if (list.size() == list.capacity()) [[unlikely]]
-      growEdgeList(list);
-    list.push_back(e);
-  }
-  [[gnu::noinline]] static void growEdgeList(std::vector<Edge>& list);
+  void addEdgeToVertex(Vertex v, Edge e) { vedges_[v].push_back(e); }
   template <class H>
   static void record(HandleLog<H>& journal, H h) {
     journal.push(h);
@@ -479,7 +477,7 @@ class SurfaceMesh {
 
   PropertyContainer vprops_, eprops_, fprops_;
   VertexProperty<Point> points_;
-  VertexProperty<std::vector<Edge>> vedges_;
+  VertexProperty<EdgeList> vedges_;
   VertexProperty<std::uint8_t> vdeleted_;  // bytes, not bits: read on every isValid()
   EdgeProperty<std::array<Vertex, 2>> everts_;
   EdgeProperty<std::array<Face, 2>> efaces_;

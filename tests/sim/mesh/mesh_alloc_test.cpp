@@ -1,5 +1,5 @@
-// Heap allocations of the edits in steady state: one per new vertex (its edge list, a
-// std::vector by API), nothing else once the property arrays have room. This program
+// Heap allocations of the edits in steady state: none once the property arrays have
+// room (a vertex's edge list is inline up to 10 edges), bar a list outgrowing that. This program
 // replaces the global operator new to count (its own executable, so that no other
 // suite runs with it).
 #include <cstdint>
@@ -49,9 +49,10 @@ std::uint32_t spread(std::size_t i, std::size_t n) { return static_cast<std::uin
 
 constexpr std::size_t kEdits = 300;
 
-// reserve() gives the journal room too; an old vertex whose edge list outgrows its
-// capacity allocates once more, a few times a run.
-constexpr double kBound = 1.1;
+// reserve() gives the journal room too; a vertex whose edge list outgrows its inline
+// room allocates, a few times a run (0-2 of 300 edits here; a std::vector per vertex
+// list made it one per edit).
+constexpr double kBound = 0.05;
 
 // Edits far from where the tests work (the last rows), so that the journal and the
 // edits' scratch buffers have grown to a steady state before counting.
@@ -66,7 +67,7 @@ void warmUp(SurfaceMesh& m) {
   }
 }
 
-TEST(SurfaceMeshAllocations, SplitEdgeAndSplitFaceAllocateOnlyTheNewVertexList) {
+TEST(SurfaceMeshAllocations, SplitEdgeAndSplitFaceAlmostNeverAllocate) {
   SurfaceMesh m = copiedGrid(30, 3 * kEdits);
   const std::size_t ne = m.edgesSize(), nf = m.facesSize();
   warmUp(m);
@@ -90,7 +91,7 @@ TEST(SurfaceMeshAllocations, SplitEdgeAndSplitFaceAllocateOnlyTheNewVertexList) 
   EXPECT_TRUE(m.validate().ok());
 }
 
-TEST(SurfaceMeshAllocations, SplitVertexAllocatesOnlyTheNewVertexList) {
+TEST(SurfaceMeshAllocations, SplitVertexAlmostNeverAllocates) {
   SurfaceMesh m = copiedGrid(30, 3 * kEdits);
   warmUp(m);
   std::size_t splits = 0;
@@ -111,7 +112,7 @@ TEST(SurfaceMeshAllocations, SplitVertexAllocatesOnlyTheNewVertexList) {
   EXPECT_TRUE(m.validate().ok());
 }
 
-TEST(SurfaceMeshAllocations, SeparateEdgeAllocatesOnlyTheNewVertexList) {
+TEST(SurfaceMeshAllocations, SeparateEdgeAlmostNeverAllocates) {
   SurfaceMesh m = copiedGrid(30, 3 * kEdits);
   warmUp(m);
   std::size_t separations = 0;
