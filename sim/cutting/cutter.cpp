@@ -2588,7 +2588,7 @@ struct CutEngine::Impl {
     bool ok = true;
     for (std::size_t i = 0; i < touched.size(); ++i) {
       const Vertex x = touched[i];
-      for (Edge e : std::vector<Edge>(m.edges(x).begin(), m.edges(x).end())) {
+      for (Edge e : mesh::EdgeList(m.edges(x))) {  // a copy: the fills edit x's edges
         if (!m.isValid(e) || !m.isBoundary(e)) continue;
         const auto lp = boundaryLoop(m, e, 400);
         ok = lp.size() >= 3 && fillLoop(A.object, lp, kSideWall) && ok;

@@ -26,29 +26,25 @@ template <class T>
 void copyPropertyData(const std::vector<T>& from, std::vector<T>& to) {
   to = from;
 }
-template <class E>
-void copyPropertyData(const std::vector<std::vector<E>>& from, std::vector<std::vector<E>>& to) {
+// (Only a list longer than an empty copy's room gets the slack: inline lists stay inline.)
+template <class List>
+void copyListsWithSlack(const std::vector<List>& from, std::vector<List>& to) {
   constexpr std::size_t kSlack = 4;
   to.clear();
   to.reserve(from.size());
   for (const auto& list : from) {
     auto& copy = to.emplace_back();
-    if (list.empty()) continue;
-    copy.reserve(list.size() + kSlack);
+    if (list.size() > copy.capacity()) copy.reserve(list.size() + kSlack);
     copy.assign(list.begin(), list.end());
   }
 }
-// Small vectors the same, where they are on the heap (inline ones have their room).
+template <class E>
+void copyPropertyData(const std::vector<std::vector<E>>& from, std::vector<std::vector<E>>& to) {
+  copyListsWithSlack(from, to);
+}
 template <class E, std::uint32_t N>
 void copyPropertyData(const std::vector<SmallVector<E, N>>& from, std::vector<SmallVector<E, N>>& to) {
-  constexpr std::size_t kSlack = 4;
-  to.clear();
-  to.reserve(from.size());
-  for (const auto& list : from) {
-    auto& copy = to.emplace_back();
-    if (list.size() > N) copy.reserve(list.size() + kSlack);
-    copy.assign(list.begin(), list.end());
-  }
+  copyListsWithSlack(from, to);
 }
 
 class BasePropertyArray {

@@ -30,8 +30,6 @@ class SmallVector {
   using iterator = T*;
   using const_iterator = const T*;
 
-  static constexpr std::uint32_t kInline = N;
-
   SmallVector() noexcept = default;
   SmallVector(const SmallVector& o) { assign(o.begin(), o.end()); }
   SmallVector(SmallVector&& o) noexcept { steal(o); }

@@ -1,7 +1,7 @@
 // Heap allocations of the edits in steady state: none once the property arrays have
-// room (a vertex's edge list is inline up to 10 edges), bar a list outgrowing that. This program
-// replaces the global operator new to count (its own executable, so that no other
-// suite runs with it).
+// room (a vertex's edge list is inline up to 10 edges), bar a list outgrowing that.
+// This program replaces the global operator new to count (its own executable, so that
+// no other suite runs with it).
 #include <cstdint>
 #include <cstdlib>
 #include <new>
