@@ -9,8 +9,10 @@
 #include <iostream>
 #include <limits>
 #include <numeric>
+#include <tuple>
 
 #include "sim/collision/bvh.h"
+#include "sim/collision/point_triangle.h"
 #include "sim/collision/segment_triangle.h"
 #include "sim/cutting/mesh_checks.h"
 
@@ -181,6 +183,7 @@ struct Track {
   Vertex prevTip;           // the path vertex before tip (the cut runs from it to tip)
   Vertex first;             // the path's first vertex (a pierce's: the back end of the slot)
   double pathLength = 0.0;  // along the path so far (extend)
+  Vec3 lastMotion = Vec3::Zero();  // the edge's motion in the last sample that moved it
 };
 
 // What one contact of a hand (from the blade's first crossing until it is out of the
@@ -2201,6 +2204,7 @@ struct CutEngine::Impl {
   }
 
   bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
+  bool liftCutOut = false;  // cutOut as the hand lifts (leavingOverSide): no slivers
   // The track's tip is on a wall of another cut (a wall face not of this cut).
   bool onEarlierWall(const Track& tr) const {
     if (tr.partner < 0 || !tr.tip.isValid()) return false;
@@ -2404,12 +2408,43 @@ struct CutEngine::Impl {
   void terminateAll(HandState& hs) {
     for (auto& t : hs.tracks)
       if (Track* P = trackById(t.partner); t.alive && P) joinStart(t.dir < 0 ? t : *P, t.dir < 0 ? *P : t);
+    for (auto& t : hs.tracks) {
+      Track* P = trackById(t.partner);
+      if (!t.alive || !P || !P->alive || !leavingOverSide(t, *P)) continue;
+      const bool pFront = t.chain.empty() || t.chain.back() != P->tip;  // whose front ends at the other's tip
+      Track& A = pFront ? *P : t;
+      Track& B = pFront ? t : *P;
+      liftCutOut = true;
+      cutOut(A, B, A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion);
+      liftCutOut = false;
+    }
     for (auto& t : hs.tracks)
       if (t.alive) terminate(t, Vec3::Zero(), Vec3::Zero(), false);
     for (auto& t : hs.tracks)
       if (t.alive) end(t);
     hs.tracks.clear();
     hs.stroke.clear();
+  }
+
+  // The hand lifted with both layers' crossings next to the face the blade was leaving
+  // over (their midpoint within a few snapping distances of a face that faces the
+  // blade's motion): a stroke that ends just past a side at a glancing angle, or a
+  // tilted blade whose lower end is still inside. Ended there, the pair would leave a
+  // strip of that face uncut and the piece attached by it; it cuts out instead. At the
+  // entry side the face faces against the motion, and in the middle of the object no
+  // face is that near.
+  bool leavingOverSide(const Track& A, const Track& B) {
+    if (A.tunnel || B.tunnel || A.object != B.object || !A.hasPending || !B.hasPending || !A.tip.isValid() ||
+        !B.tip.isValid() || !closedObject(A.object))
+      return false;
+    const Vec3 motion = A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion;
+    if (!(motion.squaredNorm() > 0.0)) return false;
+    const std::size_t oi = static_cast<std::size_t>(indexOf(A.object));
+    syncBvh(oi);
+    const SurfaceMesh& m = objects[oi].mesh;
+    const auto near =
+        collision::nearestOnSurface(m, bvhs[oi], 0.5 * (A.pending + B.pending), 3.0 * p.snapDistance, scratchFaces);
+    return near.face.isValid() && m.faceNormal(near.face).dot(motion) > 0.0;
   }
 
   void end(Track& tr) {
@@ -2481,6 +2516,7 @@ struct CutEngine::Impl {
   void cutOut(Track& A, Track& B, const Vec3& motion) {
     if (joinStart(A, B)) return;
     bool done = false;
+    const std::pair<bool, bool> hadPending{A.hasPending, B.hasPending};
     if (dbg()) {
       std::cerr << "cutOut tracks " << A.id << "," << B.id << " motion " << motion.transpose() << " tips " << A.tip
                 << "," << B.tip << " chain";
@@ -2518,8 +2554,9 @@ struct CutEngine::Impl {
         if (walked && A.alive) {
           A.tip = start;
           done = close(A, B, path);
-        } else if (path.size() > 1) {
-          // Went part of the way: open what was inserted as an ordinary cut.
+        } else if (path.size() > 1 && !liftCutOut) {
+          // Went part of the way: open what was inserted as an ordinary cut (not where
+          // the blade never was: a lifted hand's cut ends at its crossings).
           A.tip = start;
           for (std::size_t i = 1; i < path.size(); ++i) extend(A, path[i], A.tipDepth);
         }
@@ -2532,6 +2569,8 @@ struct CutEngine::Impl {
       return;
     }
     // Both end here: A's last step keeps the pair (B's last step makes side walls too).
+    // A lifted hand's cut ends at its crossings, as it would without the cut-out.
+    if (liftCutOut) std::tie(A.hasPending, B.hasPending) = hadPending;
     terminate(A, Vec3::Zero(), Vec3::Zero(), false);
     terminate(B);
     end(A);
@@ -2572,10 +2611,13 @@ struct CutEngine::Impl {
       // the far side already (snapped onto its edge: the walk runs down the rung).
       if (wallCutOut && !(q >= sliverHeight())) return false;
       // A loop too thin to cap without a sliver (a crescent of a tip left just off the
-      // far edge) tries the rung's opening first, when that makes thicker holes.
-      if (!(q >= sliverHeight()) && mayOpenRung && openRung(A.object, loop, std::max(q, 1e-3 * p.snapDistance))) {
+      // far edge) tries the rung's opening first, when that makes thicker holes. A
+      // cut-out the hand's lift asked for is optional (the cut can stay open): it makes
+      // no sliver either way.
+      const double floor = liftCutOut ? sliverHeight() : 1e-3 * p.snapDistance;
+      if (!(q >= sliverHeight()) && mayOpenRung && openRung(A.object, loop, std::max(q, floor))) {
         cuts.pop_back();  // gone with its faces
-      } else if (!(q > 1e-3 * p.snapDistance)) {
+      } else if (!(q > floor)) {
         return false;
       }
     }
@@ -3560,7 +3602,10 @@ struct CutEngine::Impl {
       return (a.b - a.a).normalized();
     };
 
-    for (auto& t : hs.tracks) followTissue(t);
+    for (auto& t : hs.tracks) {
+      followTissue(t);
+      if (const Vec3 mv = motionOf(t.segment); t.alive && mv.squaredNorm() > 1e-24) t.lastMotion = mv;
+    }
     // Match crossings to the tracks of the previous sample, nearest first.
     std::vector<Pair>& pairs = pairsBuf;
     pairs.clear();

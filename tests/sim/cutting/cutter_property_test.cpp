@@ -730,6 +730,18 @@ TEST(CutterPropertySeeds, MovingStillExitAlongASideEdgeFreesThePiece) {
   }
 }
 
+// Strokes that end with the blade leaving over a side at a glancing angle, tilted so
+// that its lower end is still in the bottom face: the pair cuts out as the hand lifts
+// (before, the top layer's tip was left 1 mm up the side face: seed 40791).
+TEST(CutterPropertySeeds, MovingStrokeLiftedAsTheBladeLeavesOverASideFreesThePiece) {
+  for (unsigned seed : {40791u, 40965u, 41250u, 41281u})
+    for (const bool still : {true, false}) {
+      const MovingRun r = runMovingSeed(seed, still);
+      EXPECT_EQ(r.error, "") << "seed " << seed << (still ? " still" : " moving");
+      EXPECT_TRUE(r.separated) << "seed " << seed << (still ? " still" : " moving");
+    }
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {

@@ -149,6 +149,42 @@ TEST(Cutter, GrooveBottomSlidesOnUnderTheBlade) {
   EXPECT_GE(wallAngle12, wallAngle);
 }
 
+// A hand lifted with the blade's crossings within a few snapping distances of the side
+// it was leaving over cuts out there (the piece comes free); lifted farther inside, or
+// just after coming in over a side, it leaves the cut open.
+TEST(Cutter, StrokeLiftedAsTheBladeLeavesOverASideFreesThePiece) {
+  for (const double endX : {9.96, 9.9}) {
+    CutEngine e;
+    e.addObject(slab());
+    test::stroke(e, Vec3(-1, 5.3, -1), Vec3(endX, 5.3, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+    ASSERT_EQ(e.objects().size(), 2u) << "stroke ending at x = " << endX;
+    for (const auto& o : e.objects()) EXPECT_TRUE(o.mesh.isClosed());
+    // The two pieces: 10 x 5.3 and 10 x 4.7 (the last 0.1 mm cut square to the side).
+    const double a0 = e.objects()[0].mesh.area(), a1 = e.objects()[1].mesh.area();
+    EXPECT_TRUE(ld::test::near(std::max(a0, a1), 2 * 53 + 2 * 10.6 + 2 * 20, 0.0, 0.2)) << std::max(a0, a1);
+    EXPECT_TRUE(ld::test::near(std::min(a0, a1), 2 * 47 + 2 * 9.4 + 2 * 20, 0.0, 0.2)) << std::min(a0, a1);
+    EXPECT_EQ(e.stats().separations, 1);
+  }
+}
+
+TEST(Cutter, StrokeLiftedInsideOrJustAfterComingInLeavesTheCutOpen) {
+  for (const double endX : {9.5, 0.05, 0.3}) {
+    CutEngine e;
+    e.addObject(slab());
+    test::stroke(e, Vec3(-1, 5.3, -1), Vec3(endX, 5.3, -1), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+    ASSERT_EQ(e.objects().size(), 1u) << "stroke ending at x = " << endX;
+    EXPECT_EQ(e.stats().separations, 0);
+    // The slot ends where the blade was: nothing is cut past it.
+    const auto& m = e.objects()[0].mesh;
+    auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    double reach = -1.0;
+    for (auto f : m.faces())
+      if (kind[f] == kSideWall)
+        for (auto v : m.vertices(f)) reach = std::max(reach, m.position(v).x());
+    EXPECT_LE(reach, endX + 0.06) << "stroke ending at x = " << endX;
+  }
+}
+
 TEST(Cutter, EnteringAndLeavingThroughTheSameSideCutsANotch) {
   CutEngine e;
   e.addObject(slab());
