@@ -155,6 +155,19 @@ TEST_F(CutAndGrasp, AnLShapedStrokeAtAHandsPaceFreesTheCorner) {
   EXPECT_EQ(window_->physics()->stats().nanFrames, 0u);
 }
 
+// The same L lifted with the blade at the front rim, 0.1 mm short of leaving it (the
+// mouse let go as the blade reached the edge): the cut is finished across the side
+// face and the corner comes free too.
+TEST_F(CutAndGrasp, AnLShapedStrokeLiftedAtTheRimFreesTheCorner) {
+  MeshView* v = window_->view();
+  const double rim = v->mesh().bounds().min[1];  // where the settled slab's front is
+  ASSERT_TRUE(window_->cutStroke({QPointF(-50, -12), QPointF(10, -12), QPointF(10, rim + 0.1)}, 8, 40.0));
+  window_->syncPhysics();
+  ASSERT_EQ(window_->objectCount(), 2u) << "the corner stayed attached (front rim at y = " << rim << ")";
+  EXPECT_LT(centroid(v->objects()[1]).y(), -12.0F);
+  EXPECT_EQ(window_->physics()->stats().nanFrames, 0u);
+}
+
 TEST_F(CutAndGrasp, GrooveWallsAreDrawnInTheInteriorColour) {
   MeshView* v = window_->view();
   ASSERT_TRUE(window_->cutAcrossTop(-20, 0, 20, 0, 3));
