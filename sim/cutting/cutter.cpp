@@ -3604,7 +3604,8 @@ struct CutEngine::Impl {
 
     for (auto& t : hs.tracks) {
       followTissue(t);
-      if (const Vec3 mv = motionOf(t.segment); t.alive && mv.squaredNorm() > 1e-24) t.lastMotion = mv;
+      if (!t.alive) continue;
+      if (const Vec3 mv = motionOf(t.segment); mv.squaredNorm() > 1e-24) t.lastMotion = mv;
     }
     // Match crossings to the tracks of the previous sample, nearest first.
     std::vector<Pair>& pairs = pairsBuf;
