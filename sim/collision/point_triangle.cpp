@@ -7,23 +7,20 @@ namespace ld::collision {
 
 using Eigen::Vector3d;
 
-namespace {
-
-Vector3d closestOnSegment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
+Vector3d closestPointOnSegment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
   const Vector3d ab = b - a;
   const double l2 = ab.squaredNorm();
   if (!(l2 > 0.0)) return a;
   return a + std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) * ab;
 }
 
-}  // namespace
-
 Vector3d closestPointOnTriangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
   const Vector3d ab = b - a, ac = c - a, ap = p - a;
   // Without area the regions below are not defined: take the sides.
   const double l2 = std::max(ab.squaredNorm(), ac.squaredNorm());
   if (!(ab.cross(ac).squaredNorm() > 1e-24 * l2 * l2)) {
-    const Vector3d candidates[3] = {closestOnSegment(p, a, b), closestOnSegment(p, b, c), closestOnSegment(p, c, a)};
+    const Vector3d candidates[3] = {closestPointOnSegment(p, a, b), closestPointOnSegment(p, b, c),
+                                    closestPointOnSegment(p, c, a)};
     return *std::min_element(std::begin(candidates), std::end(candidates), [&](const Vector3d& x, const Vector3d& y) {
       return (x - p).squaredNorm() < (y - p).squaredNorm();
     });

@@ -1,5 +1,5 @@
 #pragma once
-// Closest point of a triangle to a point, and the distance from a point to a mesh's
+// Closest point of a segment or a triangle to a point, and the distance from a point to a mesh's
 // surface near it (through the BVH). Used where the cutter asks whether a stretch
 // between two crossings already lies on the surface.
 #include <limits>
@@ -11,6 +11,10 @@
 #include "sim/mesh/surface_mesh.h"
 
 namespace ld::collision {
+
+// The point of segment [a, b] nearest to p (a when the segment has no length).
+[[nodiscard]] Eigen::Vector3d closestPointOnSegment(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                                    const Eigen::Vector3d& b);
 
 // The point of triangle (a, b, c) nearest to p (found by the region of the triangle's
 // plane p projects into: a corner, an edge or the inside). A triangle without area

@@ -2415,7 +2415,7 @@ struct CutEngine::Impl {
       Track& A = pFront ? *P : t;
       Track& B = pFront ? t : *P;
       liftCutOut = true;
-      cutOut(A, B, A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion);
+      cutOut(A, B, lastMotionOf(A, B));
       liftCutOut = false;
     }
     for (auto& t : hs.tracks)
@@ -2433,11 +2433,15 @@ struct CutEngine::Impl {
   // strip of that face uncut and the piece attached by it; it cuts out instead. At the
   // entry side the face faces against the motion, and in the middle of the object no
   // face is that near.
+  // The pair's blade motion (a layer the blade went through this sample has none yet).
+  static const Vec3& lastMotionOf(const Track& A, const Track& B) {
+    return A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion;
+  }
   bool leavingOverSide(const Track& A, const Track& B) {
     if (A.tunnel || B.tunnel || A.object != B.object || !A.hasPending || !B.hasPending || !A.tip.isValid() ||
         !B.tip.isValid() || !closedObject(A.object))
       return false;
-    const Vec3 motion = A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion;
+    const Vec3& motion = lastMotionOf(A, B);
     if (!(motion.squaredNorm() > 0.0)) return false;
     const std::size_t oi = static_cast<std::size_t>(indexOf(A.object));
     syncBvh(oi);
@@ -3260,10 +3264,7 @@ struct CutEngine::Impl {
     return q;
   }
   static double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
-    const Vec3 ab = b - a;
-    const double l2 = ab.squaredNorm();
-    const double u = l2 > 0.0 ? std::clamp((x - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
-    return (x - (a + u * ab)).norm();
+    return (x - collision::closestPointOnSegment(x, a, b)).norm();
   }
 
   struct Pair {

@@ -34,6 +34,14 @@ void expectNearest(const Vector3d& p, const Vector3d& a, const Vector3d& b, cons
   for (const Vector3d& v : {a, b, c}) EXPECT_LE((p - q).dot(v - q), tol) << "corner " << v.transpose();
 }
 
+TEST(PointTriangle, SegmentNearestPointIsClampedToItsEnds) {
+  const Vector3d a(1, 0, 0), b(3, 0, 0);
+  EXPECT_NEAR((closestPointOnSegment(Vector3d(2.5, 4, -1), a, b) - Vector3d(2.5, 0, 0)).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((closestPointOnSegment(Vector3d(-2, 1, 0), a, b) - a).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((closestPointOnSegment(Vector3d(5, 0, 3), a, b) - b).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((closestPointOnSegment(Vector3d(5, 0, 3), a, a) - a).norm(), 0.0, 1e-15);  // no length
+}
+
 TEST(PointTriangle, EachRegionOfTheUnitTriangle) {
   const Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   struct Case {
