@@ -181,6 +181,7 @@ struct Track {
   Anchor startAt, pendingAt;
   long anchoredAt = -1;
   Vertex prevTip;           // the path vertex before tip (the cut runs from it to tip)
+  Vertex prevTipCopy;       // its other copy once the cut opened there (else none)
   Vertex first;             // the path's first vertex (a pierce's: the back end of the slot)
   double pathLength = 0.0;  // along the path so far (extend)
   Vec3 lastMotion = Vec3::Zero();  // the edge's motion in the last sample that moved it
@@ -924,6 +925,7 @@ struct CutEngine::Impl {
     tr.pathLength += (m.position(N) - m.position(v)).norm();
     Track* P = trackById(tr.partner);
     tr.prevTip = v;
+    tr.prevTipCopy = Vertex();
     // (assign: the chain keeps its buffer)
     auto advanceTo = [&](std::initializer_list<Vertex> chain) {
       tr.chain.assign(chain);
@@ -1117,6 +1119,7 @@ struct CutEngine::Impl {
     // (Springs and masses of v and vn once the walls are in: touchEach below.)
     if (tissue(tr.object)) physics::copyVertexState(handlesOf(m), vn, v);
     mark(tr, vn);
+    tr.prevTipCopy = vn;
     std::vector<Vertex>& touched = extendTouched;
     touched.assign({v, vn, N});
     // A longer front (a cut-in path, or a front through a wall apex) opens as well.
@@ -1921,6 +1924,30 @@ struct CutEngine::Impl {
     Vec3 point = Vec3::Zero();
   };
 
+  // The path turns back along the cut's last edge (v, x), x a copy of the path vertex
+  // before the tip (a hairpin: at an L's corner the step before the turn snapped onto a
+  // vertex just behind the blade's new way), and crosses edge e within the snapping
+  // tolerance of x. x is the cut's own, so the crossing cannot snap there; stopping would
+  // end the track (and lose its pair). Splitting e at q instead keeps the thin wedge
+  // between the two ways whole, when no triangle of the split is a sliver. (The front,
+  // the partner's tip and the cut's starts still stop the walk: advance waits there, or
+  // the cut joins its start.)
+  bool hairpinSplit(const SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
+    const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+    const Vertex x = (q - m.position(a)).norm() <= (q - m.position(b)).norm() ? a : b;
+    if (x != tr.prevTip && x != tr.prevTipCopy) return false;
+    const Edge vx = m.findEdge(v, x);
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    if (tr.tunnel || !vx.isValid() || !kind || x == tr.first ||
+        std::find(tr.chain.begin(), tr.chain.end(), x) != tr.chain.end())
+      return false;
+    if (const Track* P = trackById(tr.partner); P && (x == P->tip || x == P->first)) return false;
+    bool opened = false;  // (v, x) is an edge of the opening: a wall face on one side
+    for (int k = 0; k < 2; ++k)
+      if (const Face g = m.face(vx, k); g.isValid() && kind[g] != kSurface) opened = true;
+    return opened && splitEdgeQuality(m, e, q) >= sliverHeight();
+  }
+
   // From the track's tip, follows the curve where the plane (through the tip, unit
   // normal n) meets the surface, in the direction `forward` at the start, inserting
   // a vertex at every edge it crosses (extending the cut). Stops when the goal point
@@ -2042,8 +2069,11 @@ struct CutEngine::Impl {
           if (goal.toVertex && (m.vertex(e, 0) == goal.vertex || m.vertex(e, 1) == goal.vertex) &&
               m.findEdge(v, goal.vertex).isValid())
             return true;
-          walkBlockedAt = e;
-          return false;
+          // ... or the path turns back past its last edge's far end: split beside it.
+          if (!hairpinSplit(m, tr, v, e, best.q)) {
+            walkBlockedAt = e;
+            return false;
+          }
         }
         if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.q);
         ++stats.trianglesCut;

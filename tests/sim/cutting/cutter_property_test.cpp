@@ -742,6 +742,20 @@ TEST(CutterPropertySeeds, MovingStrokeLiftedAsTheBladeLeavesOverASideFreesThePie
     }
 }
 
+// An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
+// (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
+// the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
+// vertex is the cut's own), the track restarted as a groove and the piece stayed
+// attached, with and without physics; the walk now splits the edge beside it.
+TEST(CutterPropertySeeds, Moving40808LCornerTurningBackPastItsLastSplitFreesThePiece) {
+  for (const bool still : {true, false}) {
+    const MovingRun r = runMovingSeed(40808u, still);
+    EXPECT_EQ(r.error, "") << (still ? "still" : "moving");
+    EXPECT_TRUE(r.separated) << (still ? "still" : "moving");
+    EXPECT_EQ(r.walkFailures, 0) << (still ? "still" : "moving");
+  }
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {

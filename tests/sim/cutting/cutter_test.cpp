@@ -211,6 +211,41 @@ TEST(Cutter, EnteringAndLeavingThroughTheSameSideCutsANotch) {
   EXPECT_TRUE(ld::test::nearVec(b.max, Vec3(4.3, 6.7, 2), 1e-9));
 }
 
+// An L stroke whose corner lies just past a vertex the path snapped onto: coming down
+// at x = 5.09 the path splits the edge y = 5 there (0.09 > the 0.08 tolerance), then the
+// cell's diagonal 0.11 from (5, 5) snaps it onto (5, 5), 0.09 mm behind the second leg's
+// way. That leg (2 mm samples, along +x) turns back past the split vertex (5.09, 5)
+// within 0.03 mm: a hairpin. Before, its walk stopped there (the vertex is the cut's
+// own), the tracks ended and restarted (3 walk failures) and the corner stayed attached.
+TEST(Cutter, LStrokeTurningBackPastItsLastSplitFreesTheCorner) {
+  CutEngine e;
+  e.addObject(slab());
+  const Vec3 down(0, 0, -1), d1 = Vec3(-0.142, -0.99, 0).normalized(), d2 = Vec3(0.99, -0.142, 0).normalized();
+  const Vec3 corner = Vec3(5.09, 5, -1) + 0.15 / 0.99 * Vec3(-0.142, -0.99, 0);
+  const Vec3 start = corner - 6.5 * d1, end = corner + 6.5 * d2;
+  auto leg = [&](const Vec3& a, const Vec3& b, double spacing, bool first) {
+    const int n = static_cast<int>(std::ceil((b - a).norm() / spacing));
+    for (int i = first ? 0 : 1; i <= n; ++i) {
+      auto pose = test::scalpel(a + (b - a) * (static_cast<double>(i) / n), down, (b - a).normalized());
+      e.step(instruments::Hand::Right, instruments::Tool::Scalpel, pose);
+      expectSound(e, true);
+    }
+  };
+  leg(start, corner, 0.02, true);
+  leg(corner, end, 2.0, false);
+  e.endStroke(instruments::Hand::Right);
+  expectSound(e, true);
+  EXPECT_EQ(e.stats().walkFailures, 0);
+  ASSERT_EQ(e.objects().size(), 2u);
+  EXPECT_EQ(e.stats().separations, 1);
+  const auto& piece = e.objects()[0].mesh.area() < e.objects()[1].mesh.area() ? e.objects()[0] : e.objects()[1];
+  // The corner piece x >= 5, y >= 4.1 (the second leg falls 0.7 mm over its 4.9 mm).
+  const auto b = piece.mesh.bounds();
+  EXPECT_NEAR(b.min.x(), 5.0, 0.01);
+  EXPECT_NEAR(b.min.y(), 4.14, 0.05);
+  EXPECT_TRUE(ld::test::nearVec(b.max, Vec3(10, 10, 2), 1e-9));
+}
+
 TEST(Cutter, TwoCutsThroughASlabFreeTheChunkBetweenThem) {
   CutEngine e;
   e.addObject(slab());
