@@ -201,6 +201,7 @@ struct HandState {
   bool hasPrev = false;
   Tool tool = Tool::Scalpel;
   Pose prev;
+  long motionAtPrev = -1;  // the engine's motionCount at the hand's last sample
   std::vector<Track> tracks;
   std::vector<StrokeOnObject> stroke;
 };
@@ -2772,15 +2773,43 @@ struct CutEngine::Impl {
     return pointOnEdge(obj, e, bestQ);
   }
 
+  // The blade's edge at the last sample (prev) went in and out of the object next to
+  // where it now crosses it (h1 in, h0 out; within the radius a track would have
+  // matched them): it was through both layers already, not outside them.
+  bool throughAtLast(const Hit& h0, const Hit& h1, const instruments::Segment& prev, const Vec3& motion) {
+    const std::size_t oi = static_cast<std::size_t>(indexOf(h0.object));
+    syncBvh(oi);
+    bvhs[oi].intersectSegment(objects[oi].mesh, prev.a, prev.b, scratchHits);
+    const double r = p.matchRadius + 2.0 * motion.norm();
+    const collision::SurfaceHit* in = nullptr;  // the last entering crossing
+    for (const auto& x : scratchHits) {
+      if (x.kind == collision::HitKind::Coplanar || x.direction == 0) continue;
+      if (x.direction > 0) {
+        in = &x;
+      } else if (in && (in->point - h1.point).norm() <= r && (x.point - h0.point).norm() <= r) {
+        return true;
+      } else {
+        in = nullptr;
+      }
+    }
+    return false;
+  }
+
   // Two new crossings with material between them (a slide-in through both layers):
   // cut from the lower crossing back around the edge the blade came in over, to the
   // upper crossing, and pair the two tracks.
   void startPair(HandState& hs, const Hit& h0, const Hit& h1, const Vec3& motionIn, const Vec3& bladeDir,
-                 const Vec3& upDir) {
+                 const Vec3& upDir, const instruments::Segment* prev = nullptr) {
     if (dbg()) std::cerr << "startPair at " << h0.point.transpose() << " / " << h1.point.transpose() << "\n";
     const Vec3 motion = motionIn;
-    if (motion.norm() < 1e-9) {
-      // The blade appeared inside (first sample): a pierce through both layers.
+    if (motion.norm() < 1e-9 || (prev && throughAtLast(h0, h1, *prev, motion))) {
+      // The blade appeared inside (first sample), or was already through both layers
+      // there at the last sample, the tissue still since (its cuts had ended: a hook's
+      // pedal): it came in over no edge, it pierces. (The walk round from an edge
+      // behind it went round the object, too long, and left its splits on the way. On
+      // moving tissue the last sample's blade may be inside the moved tissue after a
+      // true slide-in: not tested there.)
+      if (dbg() && motion.norm() >= 1e-9) std::cerr << "startPair: through both layers at the last sample\n";
       startTunnel(hs, h0, h1);
       return;
     }
@@ -3579,6 +3608,10 @@ struct CutEngine::Impl {
 
   void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {
     const auto segs = instruments::segments(tool, pose, p.tool);
+    // The tissue has not moved since the last sample: where the blade was then is where
+    // it was in the tissue as it is now.
+    const bool stillSincePrev = hs.motionAtPrev == motionCount;
+    hs.motionAtPrev = motionCount;
     const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
     std::vector<Hit>& hits = hitsBuf;
     hits.clear();
@@ -3801,7 +3834,9 @@ struct CutEngine::Impl {
         // Upper layer (h0) is the one nearer the edge's far end b.
         {
           IntervalTimer timer{stats.remeshSeconds};
-          startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up);
+          startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up,
+                    stillSincePrev && prevSegs.size() == segs.size() ? &prevSegs[static_cast<std::size_t>(h.segment)]
+                                                                     : nullptr);
         }
         debugScan("startPair");
         continue;

@@ -756,6 +756,25 @@ TEST(CutterPropertySeeds, Moving40808LCornerTurningBackPastItsLastSplitFreesTheP
   }
 }
 
+// A hook whose pedal comes up and goes down again with the blade through both layers
+// (LD_PROPERTY_SCALE=10): the two new crossings were taken for a slide-in, whose walk
+// round the edge behind the blade went round the object instead (too long: a walk
+// failure, the pair then started as a pierce) and left its splits on the way. Now a
+// blade that was through both layers there at the last sample, the tissue still,
+// pierces at once. slab 1077: ten walk failures (nine of these), now one; slab 1189 and
+// cube 2670: the stray splits left a triangle under the floor (0.0045 and 0.0033 mm).
+TEST(CutterPropertySeeds, Slab1077HookPressedThroughBothLayersPiercesWithoutAWalk) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[0], 1077), "");
+  EXPECT_LE(g_walkFailures, 1);
+}
+TEST(CutterPropertySeeds, Slab1189HookPressedThroughBothLayersLeavesNoStraySplits) {
+  EXPECT_EQ(runSeed(shapes()[0], 1189), "");
+}
+TEST(CutterPropertySeeds, Cube2670HookPressedThroughBothLayersLeavesNoStraySplits) {
+  EXPECT_EQ(runSeed(shapes()[1], 2670), "");
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {

@@ -483,6 +483,39 @@ TEST(Cutter, HookCutsOnlyWithThePedalDown) {
   EXPECT_GT(e.objects()[0].mesh.nFaces(), f0);
 }
 
+// A hook held through both layers with the pedal up, then pressed while it moves: the
+// blade came in over no edge, so the cut starts as a pierce (tunnel). It used to be
+// taken for a slide-in: the walk round from an edge behind the blade went round the
+// slab, failed as too long and left its splits on the way.
+TEST(Cutter, HookPressedThroughBothLayersPiercesWithoutAWalk) {
+  CutEngine e;
+  e.addObject(slab());
+  // The hook's foot (4 mm behind its tip) goes through the slab from x = 3 on.
+  instruments::Pose p = test::scalpel(Vec3(7, 5.3, -1.0), Vec3(0, 0, -1), Vec3(1, 0, 0));
+  for (int i = 0; i < 60; ++i) {
+    p.tip.x() += 0.05;
+    p.pedal = i >= 10;
+    e.step(instruments::Hand::Right, instruments::Tool::Hook, p);
+    expectSound(e, true);
+  }
+  e.endStroke(instruments::Hand::Right);
+  expectSound(e, true);
+  EXPECT_EQ(e.stats().walkFailures, 0);
+  EXPECT_EQ(e.objects().size(), 1u);
+  // The slot runs from where the pedal went down (x = 3.55) to the end (x = 6).
+  const auto& m = e.objects()[0].mesh;
+  auto kind = m.getFaceProperty<int>(kFaceKindProp);
+  double from = 1e9, to = -1e9;
+  for (auto f : m.faces())
+    if (kind[f] == kSideWall)
+      for (auto v : m.vertices(f)) {
+        from = std::min(from, m.position(v).x());
+        to = std::max(to, m.position(v).x());
+      }
+  EXPECT_NEAR(from, 3.55, 0.1);
+  EXPECT_NEAR(to, 6.0, 0.1);
+}
+
 // Largest distance between two vertices that share a home position: the copies made
 // when the cut opened start at the same place and drift apart as the tissue opens.
 double widestOpening(const mesh::SurfaceMesh& m) {
