@@ -201,7 +201,7 @@ struct HandState {
   bool hasPrev = false;
   Tool tool = Tool::Scalpel;
   Pose prev;
-  long motionAtPrev = -1;  // the engine's motionCount at the hand's last sample
+  long motionAtPrev = -1;  // the engine's motionCount when prev was cut
   std::vector<Track> tracks;
   std::vector<StrokeOnObject> stroke;
 };
@@ -3606,12 +3606,11 @@ struct CutEngine::Impl {
         std::cerr << "INVALID after " << where << " obj " << o.id << ": " << rep.message() << "\n";
   }
 
-  void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report) {
+  // stillSincePrev: the tissue has not moved since prevPose was cut, so where the blade
+  // was then is where it was in the tissue as it is now.
+  void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report,
+                     bool stillSincePrev) {
     const auto segs = instruments::segments(tool, pose, p.tool);
-    // The tissue has not moved since the last sample: where the blade was then is where
-    // it was in the tissue as it is now.
-    const bool stillSincePrev = hs.motionAtPrev == motionCount;
-    hs.motionAtPrev = motionCount;
     const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
     std::vector<Hit>& hits = hitsBuf;
     hits.clear();
@@ -3747,8 +3746,8 @@ struct CutEngine::Impl {
       if (f > 1e-6 && f < 1.0) {
         const Pose mid = lerpPose(*prevPose, pose, f * (1.0 - 1e-6));
         ++splitting;
-        processSample(hs, tool, mid, prevPose, false);
-        processSample(hs, tool, pose, &mid, report);
+        processSample(hs, tool, mid, prevPose, false, stillSincePrev);
+        processSample(hs, tool, pose, &mid, report, true);
         --splitting;
         return;
       }
@@ -4064,7 +4063,7 @@ StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
       hs.hasPrev = false;
     }
     if (!hs.hasPrev) {
-      I.processSample(hs, tool, pose, nullptr, true);
+      I.processSample(hs, tool, pose, nullptr, true, false);
     } else {
       const auto a = instruments::segments(tool, hs.prev, I.p.tool);
       const auto b = instruments::segments(tool, pose, I.p.tool);
@@ -4075,11 +4074,13 @@ StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
       Pose prev = hs.prev;
       for (int k = 1; k <= n; ++k) {
         const Pose cur = k == n ? pose : lerpPose(hs.prev, pose, static_cast<double>(k) / n);
-        I.processSample(hs, tool, cur, &prev, k == n);
+        // (the substeps before this one were cut in the tissue as it is now)
+        I.processSample(hs, tool, cur, &prev, k == n, k > 1 || hs.motionAtPrev == I.motionCount);
         prev = cur;
       }
     }
     hs.prev = pose;
+    hs.motionAtPrev = I.motionCount;
     hs.tool = tool;
     hs.hasPrev = true;
   });
