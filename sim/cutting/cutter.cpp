@@ -2778,11 +2778,9 @@ struct CutEngine::Impl {
   // matched them): it was through both layers already, not outside them.
   bool throughAtLast(const Hit& h0, const Hit& h1, const instruments::Segment& prev, const Vec3& motion) {
     const std::size_t oi = static_cast<std::size_t>(indexOf(h0.object));
-    syncBvh(oi);
-    bvhs[oi].intersectSegment(objects[oi].mesh, prev.a, prev.b, scratchHits);
     const double r = p.matchRadius + 2.0 * motion.norm();
     const collision::SurfaceHit* in = nullptr;  // the last entering crossing
-    for (const auto& x : scratchHits) {
+    for (const auto& x : crossings(oi, prev.a, prev.b)) {
       if (x.kind == collision::HitKind::Coplanar || x.direction == 0) continue;
       if (x.direction > 0) {
         in = &x;
@@ -2912,15 +2910,10 @@ struct CutEngine::Impl {
     Track B = newTrack(h);
     if (endFrom && endTo) {
       const std::size_t oi = static_cast<std::size_t>(indexOf(h.object));
-      syncBvh(oi);
-      bvhs[oi].intersectSegment(objects[oi].mesh, *endFrom, *endTo, scratchHits);
-      double best = p.matchRadius;
-      for (const auto& x : scratchHits)
-        if (x.kind != collision::HitKind::Coplanar && (x.point - h.point).norm() < best) {
-          best = (x.point - h.point).norm();
-          B.start = x.point;
-          B.startFace = x.face;
-        }
+      if (const auto* x = nearestCrossing(oi, *endFrom, *endTo, h.point)) {
+        B.start = x->point;
+        B.startFace = x->face;
+      }
     }
     B.partner = hs.tracks[ti].id;
     B.tunnel = true;
@@ -3182,6 +3175,27 @@ struct CutEngine::Impl {
   // ---- samples ------------------------------------------------------------------------------------
   double separationSeconds = 0.0;  // time splitting off freed pieces during the current call
 
+  // Every crossing of segment a-b with object oi's surface (its tree synced first), in
+  // scratchHits, ordered along the segment.
+  const std::vector<collision::SurfaceHit>& crossings(std::size_t oi, const Vec3& a, const Vec3& b) {
+    syncBvh(oi);
+    bvhs[oi].intersectSegment(objects[oi].mesh, a, b, scratchHits);
+    return scratchHits;
+  }
+
+  // The crossing of a-b with object oi nearest to `near`, if one lies within the
+  // matching radius (coplanar contacts do not count).
+  const collision::SurfaceHit* nearestCrossing(std::size_t oi, const Vec3& a, const Vec3& b, const Vec3& near) {
+    const collision::SurfaceHit* best = nullptr;
+    double bestDistance = p.matchRadius;
+    for (const auto& x : crossings(oi, a, b))
+      if (x.kind != collision::HitKind::Coplanar && (x.point - near).norm() < bestDistance) {
+        bestDistance = (x.point - near).norm();
+        best = &x;
+      }
+    return best;
+  }
+
   void syncBvh(std::size_t i) {
     const SurfaceMesh& m = objects[i].mesh;
     collision::TriangleBvh& b = bvhs[i];
@@ -3257,10 +3271,8 @@ struct CutEngine::Impl {
   void hitsOf(const Vec3& a, const Vec3& b, int segment, std::vector<Hit>& out) {
     for (std::size_t oi = 0; oi < objects.size(); ++oi) {
       const auto& o = objects[oi];
-      syncBvh(oi);
-      bvhs[oi].intersectSegment(o.mesh, a, b, scratchHits);
       const std::size_t first = out.size();
-      for (const auto& h : scratchHits) {
+      for (const auto& h : crossings(oi, a, b)) {
         if (h.kind == collision::HitKind::Coplanar || h.direction == 0) continue;
         Hit& x = out.emplace_back();
         x.object = o.id;
@@ -3727,14 +3739,7 @@ struct CutEngine::Impl {
           d.from = atA ? prevSegs[sg].a : prevSegs[sg].b;
           d.to = atA ? segs[sg].a : segs[sg].b;
           const std::size_t oi = static_cast<std::size_t>(indexOf(h.object));
-          syncBvh(oi);
-          bvhs[oi].intersectSegment(objects[oi].mesh, d.from, d.to, scratchHits);
-          double best = p.matchRadius;
-          for (const auto& x : scratchHits)
-            if (x.kind != collision::HitKind::Coplanar && (x.point - h.point).norm() < best) {
-              best = (x.point - h.point).norm();
-              d.fraction = x.t;
-            }
+          if (const auto* x = nearestCrossing(oi, d.from, d.to, h.point)) d.fraction = x->t;
         }
         deepBuf.push_back(d);
         break;
