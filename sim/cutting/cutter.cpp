@@ -598,14 +598,16 @@ struct CutEngine::Impl {
                              m.position(v[static_cast<std::size_t>((i + 1) % 3)]), P));
     if (q < sliverHeight()) {
       // Splitting f at P would make a sliver: onto the nearest edge or corner within
-      // reach whose split does not (a corner makes no triangle at all).
+      // reach whose split does not (a corner makes no triangle at all). A corner is in
+      // reach within the snapping distance too, where f's short edge (an earlier cut's)
+      // brings half of it below that.
       double bestD = 1e300;
       Vertex to;
       Edge onto;
       for (int i = 0; i < 3; ++i) {
         const Vertex x = v[static_cast<std::size_t>(i)];
         const double d = (m.position(x) - P).norm();
-        if (d < bestD && d <= sliverReach(minEdge)) {
+        if (d < bestD && d <= std::max(sliverReach(minEdge), p.snapDistance)) {
           bestD = d;
           to = x;
           onto = Edge();

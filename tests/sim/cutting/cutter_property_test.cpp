@@ -675,6 +675,13 @@ TEST(CutterPropertySeeds, Cylinder4124CrossingALongWallEdgeSnaps) { EXPECT_EQ(ru
 // is on the cut itself and whose far end is out of reach (a 0.0095 mm triangle): the walk
 // now stops there, as within the plain tolerance of the cut.
 TEST(CutterPropertySeeds, Cylinder4104CrossingNextToTheCutItselfStops) { EXPECT_EQ(runSeed(shapes()[3], 4104), ""); }
+// slab 3566 (LD_PROPERTY_SCALE=50): a point 0.018 mm from the corner of a face whose
+// shortest edge is 0.019 mm (an earlier cut's); a split there is a 0.0106 mm triangle,
+// and the corner was out of reach (half that edge). A corner within the snapping
+// distance is in reach now: the point snaps onto it.
+TEST(CutterPropertySeeds, Slab3566PointNextToAFaceWithAShortEdgeSnapsToItsCorner) {
+  EXPECT_EQ(runSeed(shapes()[0], 3566), "");
+}
 // slab deepen 20021: the groove's path crosses an edge next to its end under the walls.
 TEST(CutterPropertySeeds, SlabDeepen20021GrooveCrossingSnaps) { EXPECT_EQ(runDeepenSeed(shapes()[0], 20021), ""); }
 
