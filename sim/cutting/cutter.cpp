@@ -2885,6 +2885,20 @@ struct CutEngine::Impl {
   // to join with side walls.
   double foldThickness() const { return 10.0 * p.snapDistance; }
 
+  // In at `in`, out at `out` within half the fold thickness, through faces facing the
+  // same side (normals under 90° apart): the blade clips a bulge of one side (a side face
+  // the tissue's motion bowed out), not two layers. Its crossings there slide fast along
+  // the surface as it goes on, so a pair started on them can lose its lower track at once
+  // while the upper one cuts on as a groove. Nothing starts until the blade is in deeper
+  // and the crossings have parted or face away from each other. (The whole fold
+  // thickness held back pairs that would have worked: the moving-tissue test's first 32
+  // strokes freed 28 instead of 30.)
+  bool clipsBulge(const Hit& in, const Hit& out) const {
+    if (!((out.point - in.point).norm() < 0.5 * foldThickness())) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(in.object))].mesh;
+    return m.faceNormal(in.face).dot(m.faceNormal(out.face)) > 0.0;
+  }
+
   // Two layers pierced in the middle of the object: each gets its own track; they
   // are paired and join through a tunnel once both paths can open.
   void startTunnel(HandState& hs, const Hit& h0, const Hit& h1) {
@@ -3832,9 +3846,15 @@ struct CutEngine::Impl {
           if (trackOfHit[k] >= 0 && hits[k].object == x.object && hits[k].segment == x.segment) return true;
         return false;
       };
-      if (j < hits.size() && !hits[j].used && hits[j].object == h.object && hits[j].segment == h.segment && h.dir > 0 &&
-          hits[j].dir < 0 && closedObject(h.object) &&
-          !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h)) && !onStrokeLip(hs, hits[j])) {
+      // The edge goes in here and out at the next crossing, on a closed object.
+      const bool inOut = j < hits.size() && !hits[j].used && hits[j].object == h.object &&
+                         hits[j].segment == h.segment && h.dir > 0 && hits[j].dir < 0 && closedObject(h.object);
+      if (inOut && !restart && trackOfHit[j] < 0 && clipsBulge(h, hits[j])) {
+        if (dbg()) std::cerr << "bulge clipped at " << h.point.transpose() << "\n";
+        hits[i].used = hits[j].used = true;
+        continue;
+      }
+      if (inOut && !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h)) && !onStrokeLip(hs, hits[j])) {
         hits[i].used = hits[j].used = true;
         if (!mayStart(hs, h.object, h.segment, 2)) continue;
         // Upper layer (h0) is the one nearer the edge's far end b.
