@@ -1925,7 +1925,110 @@ struct CutEngine::Impl {
     bool toVertex = false;
     Vertex vertex;
     Vec3 point = Vec3::Zero();
+    Face face;               // the face holding point (advance: the hit's), if known
+    bool stopAtLip = false;  // stop on an earlier cut's lip with point across its gap (acrossLip)
   };
+
+  // A blade crossing another cut's slot or groove: the walk (advance) reaches the near
+  // lip, the blade's point lies across the gap on the far lip, and walking on would
+  // follow the sweep plane down that cut's wall (and on a slot round the object). When
+  // that curve would pass the blade's end first (pastBlade), the walk stops on the lip
+  // and advance ends the track there: the crossing starts a new one beyond. (A groove
+  // crossing a shallower groove still walks down its wall, across its bottom and up.)
+  bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
+  // From v: would the sweep plane's curve (heading `forward` first) go past the blade's
+  // end (`end`, the crossing's depth: the end of a groove's blade, the middle of a
+  // tunnel's) by more than the snapping distance before it reaches the goal's face, or
+  // run on for more than maxLen? Traced over the faces, nothing edited.
+  bool pastBlade(const SurfaceMesh& m, Vertex v, const WalkGoal& goal, const Vec3& n, const Vec3& forward,
+                 const Vec3& end, double maxLen) const {
+    const Vec3 pv = m.position(v);
+    const Vec3 into = end - goal.point;
+    if (!(into.norm() > 0.0)) return false;
+    const Vec3 u = into.normalized();
+    auto side = [&](Vertex x) { return n.dot(m.position(x) - pv); };
+    auto cross = [&](Vertex a, Vertex b) {
+      const double sa = side(a), sb = side(b);
+      return Vec3(m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb)));
+    };
+    Face f;
+    Edge e;
+    Vec3 q = pv;
+    double best = -0.7;
+    for (Face g : m.faces(v)) {
+      const auto& gv = m.vertices(g);
+      const int k = m.localIndex(g, v);
+      const Vertex a = gv[static_cast<std::size_t>((k + 1) % 3)], b = gv[static_cast<std::size_t>((k + 2) % 3)];
+      const double sa = side(a), sb = side(b);
+      if (sa == 0.0 || sb == 0.0 || (sa > 0) == (sb > 0)) continue;
+      const Vec3 x = cross(a, b);
+      if (!((x - pv).norm() > 0.0)) continue;
+      const double score = (x - pv).normalized().dot(forward);
+      if (score > best) {
+        best = score;
+        f = g;
+        e = m.findEdge(a, b);
+        q = x;
+      }
+    }
+    if (!f.isValid() || !e.isValid()) return false;  // cannot tell: the walk goes on
+    double len = (q - pv).norm();
+    for (int i = 0; i < 1000; ++i) {
+      if ((q - end).dot(u) > p.snapDistance || len > maxLen) return true;
+      const Face g = m.otherFace(e, f);
+      if (!g.isValid() || pointInFace(m, g, goal.point)) return false;
+      const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+      Vertex c;
+      for (Vertex x : m.vertices(g))
+        if (x != a && x != b) c = x;
+      if (!c.isValid()) return false;
+      const double sa = side(a), sc = side(c);
+      const Vertex o = (sa > 0) != (sc > 0) ? a : b;
+      if (side(o) == side(c)) return false;
+      const Vec3 x = cross(o, c);
+      len += (x - q).norm();
+      q = x;
+      e = m.findEdge(o, c);
+      f = g;
+      if (!e.isValid()) return false;
+    }
+    return true;
+  }
+
+  // v is on the lip of an earlier cut (a surface face and a wall face with a corner off
+  // this cut around it), and the goal, within the matching radius, lies across that
+  // cut's gap: beyond the plane of such a wall face at v, on a surface face with a
+  // corner on such a wall (the far lip) that is not behind that plane.
+  bool acrossLip(const SurfaceMesh& m, const Track& tr, Vertex v, const WalkGoal& goal) const {
+    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    if (!kind || !m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
+    auto foreignWall = [&](Face f) {
+      if (kind[f] == kSurface) return false;
+      for (Vertex x : m.vertices(f))
+        if (!tr.visited.count(x)) return true;
+      return false;
+    };
+    const Vec3 pv = m.position(v);
+    if ((goal.point - pv).norm() > p.matchRadius) return false;
+    bool onSurface = false;
+    for (Face f : m.faces(v)) onSurface = onSurface || kind[f] == kSurface;
+    if (!onSurface) return false;
+    for (Face w : m.faces(v)) {
+      if (!foreignWall(w)) continue;
+      Vec3 nw = rawNormal(m, w);
+      if (!(nw.norm() > 0.0)) continue;
+      nw.normalize();
+      const double beyond = (goal.point - pv).dot(nw);
+      if (!(beyond > 0.0)) continue;
+      for (Vertex x : m.vertices(goal.face)) {
+        bool farLip = false;
+        for (Face g : m.faces(x)) farLip = farLip || foreignWall(g);
+        if (!farLip) continue;
+        if ((m.position(x) - pv).dot(nw) >= -p.snapDistance) return true;
+      }
+    }
+    return false;
+  }
 
   // The path turns back along the cut's last edge (v, x), x a copy of the path vertex
   // before the tip (a hairpin: at an L's corner the step before the turn snapped onto a
@@ -1969,6 +2072,7 @@ struct CutEngine::Impl {
     const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - depthFrom);
     int sgn = 0;
     double travelled = 0.0;
+    Vec3 heading = forward;
     const int maxSteps = 100000;
     for (int step = 0; step < maxSteps; ++step) {
       SurfaceMesh& m = meshOf(tr.object);
@@ -1992,6 +2096,12 @@ struct CutEngine::Impl {
             tr.pendingFace = f;
             return true;
           }
+        if (goal.stopAtLip && acrossLip(m, tr, v, goal) &&
+            pastBlade(m, v, goal, n, heading, depth1, maxLen - travelled)) {
+          if (dbg()) std::cerr << "walk: at an earlier cut's lip at " << pv.transpose() << " step " << step << "\n";
+          walkAtLip = true;
+          return false;
+        }
       }
       // Candidates: where the plane leaves the fan of v, ahead of v.
       struct Cand {
@@ -2052,6 +2162,7 @@ struct CutEngine::Impl {
         return false;
       }
       if (sgn == 0) sgn = best.sign;
+      heading = (best.q - pv).normalized();
       travelled += (best.q - pv).norm();
       if (travelled > maxLen) {
         if (dbg()) std::cerr << "walk: too long at " << pv.transpose() << "\n";
@@ -2325,8 +2436,22 @@ struct CutEngine::Impl {
       const double dist = (h.point - from).norm();
       WalkGoal g;
       g.point = h.point;
+      g.face = h.face;
+      // (A cut-through's layers wait on an earlier cut's wall for each other instead.)
+      g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
+      walkAtLip = false;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
+    }
+    if (!ok && walkAtLip) {
+      // An earlier cut's lip, the blade's point across its gap: the track ends here and
+      // the hit starts a new one beyond.
+      if (dbg()) std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip\n";
+      ++stats.lipStops;
+      tr.hasPending = false;
+      end(tr);
+      h.used = false;
+      return;
     }
     if (!ok && walkBlockedAt.isValid()) {
       // The crossing has reached the other layer's tip (both layers leave over the

@@ -131,6 +131,7 @@ struct CutStats {
   long tracks = 0;
   long separations = 0;
   long walkFailures = 0;           // a track could not follow the blade and was ended
+  long lipStops = 0;               // tracks ended on an earlier cut's lip, the blade across its gap (restarted there)
   long holds = 0;                  // track samples that waited: the blade was behind the moved tip
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)

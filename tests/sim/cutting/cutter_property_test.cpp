@@ -56,19 +56,19 @@ struct Quality {
   }
 };
 Quality g_seen;
-long g_thin = 0, g_checks = 0, g_walkFailures = 0;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = 0;
 }
 
 std::string seenText() {
   return "thinnest triangle height " + std::to_string(g_seen.height) + " mm, smallest area " +
          std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
-         ", walk failures " + std::to_string(g_walkFailures);
+         ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
@@ -193,6 +193,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3) {
     if (!err.empty()) return "stroke " + std::to_string(s) + " end: " + err;
   }
   g_walkFailures += e.stats().walkFailures;
+  g_lipStops += e.stats().lipStops;
   return {};
 }
 
@@ -242,6 +243,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
     if (!err.empty()) return "stroke " + std::to_string(s) + " end: " + err;
   }
   g_walkFailures += e.stats().walkFailures;
+  g_lipStops += e.stats().lipStops;
   return {};
 }
 
@@ -795,6 +797,27 @@ TEST(CutterPropertySeeds, Slab1189HookPressedThroughBothLayersLeavesNoStraySplit
 }
 TEST(CutterPropertySeeds, Cube2670HookPressedThroughBothLayersLeavesNoStraySplits) {
   EXPECT_EQ(runSeed(shapes()[1], 2670), "");
+}
+
+// A groove or tunnel crossing an earlier cut's slot (LD_PROPERTY_SCALE=10): the tip
+// reached the near lip with the blade's point across the gap on the far lip, and the
+// walk followed the sweep plane down the earlier cut's wall and round the object,
+// splitting edges, until it failed. Now the track ends on the lip and the crossing
+// starts a new one beyond. slab 1004: a groove's point 0.011 mm past a slot's lip;
+// slab 1394: a tunnel's track along a groove's lip.
+TEST(CutterPropertySeeds, Slab1004GrooveAcrossAnEarlierSlotEndsOnItsLip) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[0], 1004), "");
+  std::cout << seenText() << "\n";
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_GE(g_lipStops, 1);
+}
+TEST(CutterPropertySeeds, Slab1394TunnelAlongAGroovesLipEndsOnIt) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[0], 1394), "");
+  std::cout << seenText() << "\n";
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_GE(g_lipStops, 1);
 }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
