@@ -3017,9 +3017,14 @@ struct CutEngine::Impl {
   // while the upper one cuts on as a groove. Nothing starts until the blade is in deeper
   // and the crossings have parted or face away from each other. (The whole fold
   // thickness held back pairs that would have worked: the moving-tissue test's first 32
-  // strokes freed 28 instead of 30.)
-  bool clipsBulge(const Hit& in, const Hit& out) const {
-    if (!((out.point - in.point).norm() < 0.5 * foldThickness())) return false;
+  // strokes freed 28 instead of 30.) On tissue that moved since the last sample, any
+  // pair within two snapping distances is a clip too, whichever way its faces face: a
+  // fold of the side the blade has just cut out over was otherwise cut out as a chunk of
+  // its own. On still tissue such pairs are the first contact of a slide-in over an edge.
+  bool clipsBulge(const Hit& in, const Hit& out, bool still) const {
+    const double d = (out.point - in.point).norm();
+    if (!(d < 0.5 * foldThickness())) return false;
+    if (!still && d < 2.0 * p.snapDistance) return true;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(in.object))].mesh;
     return m.faceNormal(in.face).dot(m.faceNormal(out.face)) > 0.0;
   }
@@ -3974,7 +3979,7 @@ struct CutEngine::Impl {
       // The edge goes in here and out at the next crossing, on a closed object.
       const bool inOut = j < hits.size() && !hits[j].used && hits[j].object == h.object &&
                          hits[j].segment == h.segment && h.dir > 0 && hits[j].dir < 0 && closedObject(h.object);
-      if (inOut && !restart && trackOfHit[j] < 0 && clipsBulge(h, hits[j])) {
+      if (inOut && !restart && trackOfHit[j] < 0 && clipsBulge(h, hits[j], stillSincePrev || !prevPose)) {
         if (dbg()) std::cerr << "bulge clipped at " << h.point.transpose() << "\n";
         hits[i].used = hits[j].used = true;
         continue;

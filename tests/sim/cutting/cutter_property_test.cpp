@@ -765,6 +765,15 @@ TEST(CutterPropertySeeds, MovingEntryClippingABowedSideFreesThePiece) {
     EXPECT_TRUE(r.separated) << "seed " << seed;
   }
 }
+// Seed 41027 (LD_PROPERTY_SCALE=50): with the clip above alone, the blade going on past
+// the side it had just cut out over met a fold of that side, in and out 0.027 mm apart
+// through faces not facing the same way, and cut it out as a third object. On moving
+// tissue a pair that thin is a clip too.
+TEST(CutterPropertySeeds, MovingFoldPastTheExitIsNotCutOutAsAPiece) {
+  const MovingRun r = runMovingSeed(41027u);
+  EXPECT_EQ(r.error, "");
+  EXPECT_TRUE(r.separated);
+}
 
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
