@@ -2710,8 +2710,19 @@ struct CutEngine::Impl {
         // a tilted blade may have taken A's tip over the edge and down the far side
         // already, where going on is square to the side and only B's tip tells which way.
         const Vec3 first = (motion.normalized() + (pb - pa).normalized()).normalized();
-        const bool walked =
-            walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen, A.tipDepth, A.tipDepth, &path);
+        // Tips joined by an edge of the surface (not the pair's rung: the front has more
+        // than one edge), e.g. both layers met on the side face as it sprang back into
+        // the blade: that edge is the path (the walk, which keeps off the cut's own
+        // faces around the tip, would find no way to a tip this close).
+        bool joined = false;
+        if (const Edge eAB = m.findEdge(start, B.tip); eAB.isValid() && A.chain.size() >= 2) {
+          const auto kindAB = m.getFaceProperty<int>(kFaceKindProp);
+          joined = static_cast<bool>(kindAB);
+          for (int k = 0; k < 2 && joined; ++k)
+            if (const Face fk = m.face(eAB, k); !fk.isValid() || kindAB[fk] != kSurface) joined = false;
+        }
+        const bool walked = joined || walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen,
+                                           A.tipDepth, A.tipDepth, &path);
         if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
         if (walked && A.alive) {
           A.tip = start;

@@ -775,6 +775,20 @@ TEST(CutterPropertySeeds, MovingFoldPastTheExitIsNotCutOutAsAPiece) {
   EXPECT_TRUE(r.separated);
 }
 
+// A stroke leaving over a side the pre-stretch bowed out, with physics between samples
+// (seed 40007): the layers' crossings slid down the blade's edge over the moving side and
+// both tips ended on it 0.5 mm apart, joined by an edge of the surface. The cut-out walk
+// from one tip keeps off faces whose corners are all on the cut, and every face toward
+// the other tip was one: it found no way, both tracks ended and the piece stayed
+// attached. The cut-out now cuts along that edge.
+TEST(CutterPropertySeeds, MovingExitWithTipsJoinedByASurfaceEdgeFreesThePiece) {
+  for (const bool still : {true, false}) {
+    const MovingRun r = runMovingSeed(40007u, still);
+    EXPECT_EQ(r.error, "") << (still ? "still" : "moving");
+    EXPECT_TRUE(r.separated) << (still ? "still" : "moving");
+  }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
