@@ -1996,10 +1996,11 @@ struct CutEngine::Impl {
   }
 
   // v is on the lip of an earlier cut (a surface face and a wall face with a corner off
-  // this cut around it), and the goal, within the matching radius, lies across that
+  // this cut among `around`, v's faces), and the goal, within the matching radius, lies across that
   // cut's gap: beyond the plane of such a wall face at v, on a surface face with a
   // corner on such a wall (the far lip) that is not behind that plane.
-  bool acrossLip(const SurfaceMesh& m, const Track& tr, Vertex v, const WalkGoal& goal) const {
+  bool acrossLip(const SurfaceMesh& m, const Track& tr, Vertex v, const std::vector<Face>& around,
+                 const WalkGoal& goal) const {
     const auto kind = m.getFaceProperty<int>(kFaceKindProp);
     if (!kind || !m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
     auto foreignWall = [&](Face f) {
@@ -2011,9 +2012,9 @@ struct CutEngine::Impl {
     const Vec3 pv = m.position(v);
     if ((goal.point - pv).norm() > p.matchRadius) return false;
     bool onSurface = false;
-    for (Face f : m.faces(v)) onSurface = onSurface || kind[f] == kSurface;
+    for (Face f : around) onSurface = onSurface || kind[f] == kSurface;
     if (!onSurface) return false;
-    for (Face w : m.faces(v)) {
+    for (Face w : around) {
       if (!foreignWall(w)) continue;
       Vec3 nw = rawNormal(m, w);
       if (!(nw.norm() > 0.0)) continue;
@@ -2096,7 +2097,7 @@ struct CutEngine::Impl {
             tr.pendingFace = f;
             return true;
           }
-        if (goal.stopAtLip && acrossLip(m, tr, v, goal) &&
+        if (goal.stopAtLip && acrossLip(m, tr, v, around, goal) &&
             pastBlade(m, v, goal, n, heading, depth1, maxLen - travelled)) {
           if (dbg()) std::cerr << "walk: at an earlier cut's lip at " << pv.transpose() << " step " << step << "\n";
           walkAtLip = true;
