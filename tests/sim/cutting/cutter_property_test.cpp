@@ -828,20 +828,15 @@ TEST(CutterPropertySeeds, Cube2670HookPressedThroughBothLayersLeavesNoStraySplit
 // splitting edges, until it failed. Now the track ends on the lip and the crossing
 // starts a new one beyond. slab 1004: a groove's point 0.011 mm past a slot's lip;
 // slab 1394: a tunnel's track along a groove's lip.
-TEST(CutterPropertySeeds, Slab1004GrooveAcrossAnEarlierSlotEndsOnItsLip) {
+void expectSlabSeedEndsOnALip(unsigned seed) {
   resetSeen();
-  EXPECT_EQ(runSeed(shapes()[0], 1004), "");
+  EXPECT_EQ(runSeed(shapes()[0], seed), "");
   std::cout << seenText() << "\n";
   EXPECT_EQ(g_walkFailures, 0);
   EXPECT_GE(g_lipStops, 1);
 }
-TEST(CutterPropertySeeds, Slab1394TunnelAlongAGroovesLipEndsOnIt) {
-  resetSeen();
-  EXPECT_EQ(runSeed(shapes()[0], 1394), "");
-  std::cout << seenText() << "\n";
-  EXPECT_EQ(g_walkFailures, 0);
-  EXPECT_GE(g_lipStops, 1);
-}
+TEST(CutterPropertySeeds, Slab1004GrooveAcrossAnEarlierSlotEndsOnItsLip) { expectSlabSeedEndsOnALip(1004); }
+TEST(CutterPropertySeeds, Slab1394TunnelAlongAGroovesLipEndsOnIt) { expectSlabSeedEndsOnALip(1394); }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
