@@ -2292,8 +2292,25 @@ struct CutEngine::Impl {
     if (!tr.tip.isValid()) return false;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
     const auto kind = m.getFaceProperty<int>(kFaceKindProp);
-    return m.isValid(h.face) && kind && kind[h.face] != kSurface &&
-           (h.point - m.position(tr.tip)).norm() <= p.matchRadius;
+    if (!m.isValid(h.face) || !kind || (h.point - m.position(tr.tip)).norm() > p.matchRadius) return false;
+    return kind[h.face] != kSurface || (movedSincePrev && tr.partner >= 0 && !tr.tunnel && onLipBehind(m, tr, h.face));
+  }
+  // A lip of the cut behind its last edge: a surface face along the cut (two corners on
+  // it) at the far end of that edge (either copy), not at the tip. (Only for an opened
+  // cut-through: a groove's, or a tunnel's before it opens, lips curl up into the blade's
+  // way, and holding there changed the curling-groove test's cut.) On moving tissue the
+  // copies part with the lips, and the way from the one copy to the tip (behindTip) can
+  // point anywhere: a crossing back on the lip then read as ahead, and the walk to it,
+  // stopped by the cut's own vertex, ended the track (moving seed 40236).
+  static bool onLipBehind(const SurfaceMesh& m, const Track& tr, Face f) {
+    int onCut = 0;
+    bool atPrev = false;
+    for (Vertex x : m.vertices(f)) {
+      if (x == tr.tip) return false;
+      atPrev = atPrev || (x.isValid() && (x == tr.prevTip || x == tr.prevTipCopy));
+      onCut += tr.visited.count(x) ? 1 : 0;
+    }
+    return atPrev && onCut >= 2;
   }
   // No crossing for the track: the blade passes by its tip inside the opening.
   bool holdsWithout(const Track& tr, const instruments::Segment& s) const {
@@ -2348,6 +2365,7 @@ struct CutEngine::Impl {
     return true;
   }
 
+  bool movedSincePrev = false;  // the tissue moved since the hand's last sample (processSample)
   bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
   bool liftCutOut = false;  // cutOut as the hand lifts (leavingOverSide): no slivers
   // The track's tip is on a wall of another cut (a wall face not of this cut).
@@ -3781,6 +3799,7 @@ struct CutEngine::Impl {
   // was then is where it was in the tissue as it is now.
   void processSample(HandState& hs, Tool tool, const Pose& pose, const Pose* prevPose, bool report,
                      bool stillSincePrev) {
+    movedSincePrev = !stillSincePrev;
     const auto segs = instruments::segments(tool, pose, p.tool);
     const bool cuts = tool == Tool::Scalpel || (tool == Tool::Hook && pose.pedal);
     std::vector<Hit>& hits = hitsBuf;

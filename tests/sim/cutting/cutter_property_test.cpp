@@ -789,6 +789,20 @@ TEST(CutterPropertySeeds, MovingExitWithTipsJoinedByASurfaceEdgeFreesThePiece) {
   }
 }
 
+// A stroke leaving over the side y = 0 with physics (seed 40236): the top layer's path had
+// turned down the side face, and the tissue's motion put the blade's crossing back up on
+// the cut's lip, 0.04 mm from the copy of the path's previous vertex. The two copies had
+// parted 0.42 mm with the lips, so the way from the other copy to the tip did not read the
+// crossing as behind the tip; the walk to it stopped at the cut's own vertex (a walk
+// failure), the top track ended and the piece stayed attached. A crossing on that lip now
+// holds the track, and the pair cuts out.
+TEST(CutterPropertySeeds, MovingExitCrossingBackOnTheCutsLipFreesThePiece) {
+  const MovingRun r = runMovingSeed(40236u);
+  EXPECT_EQ(r.error, "");
+  EXPECT_TRUE(r.separated);
+  EXPECT_EQ(r.walkFailures, 0);
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
