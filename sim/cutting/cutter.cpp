@@ -3969,6 +3969,19 @@ struct CutEngine::Impl {
           continue;
         }
       }
+      // One layer of a pair lost the blade next to the side it is leaving over while the
+      // other still has it: on moving tissue a dent of that side next to the crossing
+      // started two grooves, and one of them took this layer's crossing as it climbed
+      // the side (seeds 40174, 40182). Ended alone, it left its partner to end as a
+      // groove and the piece attached; it waits for the partner, and they cut out.
+      if (P && movedSincePrev) {
+        const std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
+        if (pi < nTracks && matchOf[pi] >= 0 && P->alive && leavingOverSide(t, *P)) {
+          if (dbg()) std::cerr << "track " << t.id << " waits at the side for its partner\n";
+          ++stats.holds;
+          continue;
+        }
+      }
       if (P) {
         std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
         if (pi < nTracks && matchOf[pi] < 0) {

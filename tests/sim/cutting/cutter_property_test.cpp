@@ -803,6 +803,22 @@ TEST(CutterPropertySeeds, MovingExitCrossingBackOnTheCutsLipFreesThePiece) {
   EXPECT_EQ(r.walkFailures, 0);
 }
 
+// Strokes leaving over a side with physics whose bottom layer's crossing climbed the side
+// face past a dent next to the bottom edge (seeds 40174, 40182: the blade's edge went out
+// and in again 0.03 / 0.12 mm apart just above that crossing). The dent's two crossings
+// started grooves, and at the next sample the one going in took the bottom layer's
+// crossing (nearer its start); the bottom track, its partner still cutting, ended alone,
+// the top one then ended as a groove and the piece stayed attached. A layer that loses the
+// blade next to the side it is leaving over now waits for its partner, and they cut out.
+TEST(CutterPropertySeeds, MovingExitBottomLayerLosingTheBladeFirstWaitsForItsPartner) {
+  for (unsigned seed : {40174u, 40182u}) {
+    const MovingRun r = runMovingSeed(seed);
+    EXPECT_EQ(r.error, "") << "seed " << seed;
+    EXPECT_TRUE(r.separated) << "seed " << seed;
+    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
+  }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
