@@ -2932,8 +2932,16 @@ struct CutEngine::Impl {
 
   // The blade's edge at the last sample (prev) went in and out of the object next to
   // where it now crosses it (h1 in, h0 out; within the radius a track would have
-  // matched them): it was through both layers already, not outside them.
-  bool throughAtLast(const Hit& h0, const Hit& h1, const instruments::Segment& prev, const Vec3& motion) {
+  // matched them): it was through both layers already, not outside them. Not on tissue
+  // that moved since the hand's last sample (tissueMoved; prev is then an earlier
+  // substep) when those crossings were a clip (`clipsBulge`), which started nothing to
+  // wait for crossings that have parted: the radius is wider than a slab, the in and
+  // out of a bulge clipped at the top matched both, and the slide-in over that side
+  // started as a pierce 0.3 mm inside it, the piece attached by that strip (moving seed
+  // 40222). (On still tissue as well it changed 40 of the random and deepening strokes
+  // at LD_PROPERTY_SCALE=10, walk failures 170 -> 171 and 47 -> 48.)
+  bool throughAtLast(const Hit& h0, const Hit& h1, const instruments::Segment& prev, const Vec3& motion,
+                     bool tissueMoved) {
     const std::size_t oi = static_cast<std::size_t>(indexOf(h0.object));
     const double r = p.matchRadius + 2.0 * motion.norm();
     const collision::SurfaceHit* in = nullptr;  // the last entering crossing
@@ -2941,7 +2949,8 @@ struct CutEngine::Impl {
       if (x.kind == collision::HitKind::Coplanar || x.direction == 0) continue;
       if (x.direction > 0) {
         in = &x;
-      } else if (in && (in->point - h1.point).norm() <= r && (x.point - h0.point).norm() <= r) {
+      } else if (in && (in->point - h1.point).norm() <= r && (x.point - h0.point).norm() <= r &&
+                 !(tissueMoved && clipsBulge(oi, in->point, in->face, x.point, x.face, false))) {
         return true;
       } else {
         in = nullptr;
@@ -2954,10 +2963,10 @@ struct CutEngine::Impl {
   // cut from the lower crossing back around the edge the blade came in over, to the
   // upper crossing, and pair the two tracks.
   void startPair(HandState& hs, const Hit& h0, const Hit& h1, const Vec3& motionIn, const Vec3& bladeDir,
-                 const Vec3& upDir, const instruments::Segment* prev = nullptr) {
+                 const Vec3& upDir, const instruments::Segment* prev = nullptr, bool tissueMoved = false) {
     if (dbg()) std::cerr << "startPair at " << h0.point.transpose() << " / " << h1.point.transpose() << "\n";
     const Vec3 motion = motionIn;
-    if (motion.norm() < 1e-9 || (prev && throughAtLast(h0, h1, *prev, motion))) {
+    if (motion.norm() < 1e-9 || (prev && throughAtLast(h0, h1, *prev, motion, tissueMoved))) {
       // The blade appeared inside (first sample), or was already through both layers
       // there at the last sample, the tissue still since (its cuts had ended: a hook's
       // pedal): it came in over no edge, it pierces. (The walk round from an edge
@@ -3053,11 +3062,14 @@ struct CutEngine::Impl {
   // its own. (On still tissue as well, it cost the still runs 2 of 32 and 20 of 320
   // freed pieces; not traced, likely slide-ins whose first contact is at an edge.)
   bool clipsBulge(const Hit& in, const Hit& out, bool still) const {
-    const double d = (out.point - in.point).norm();
+    return clipsBulge(static_cast<std::size_t>(indexOf(in.object)), in.point, in.face, out.point, out.face, still);
+  }
+  bool clipsBulge(std::size_t oi, const Vec3& in, Face inFace, const Vec3& out, Face outFace, bool still) const {
+    const double d = (out - in).norm();
     if (!(d < 0.5 * foldThickness())) return false;
     if (!still && d < 2.0 * p.snapDistance) return true;
-    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(in.object))].mesh;
-    return m.faceNormal(in.face).dot(m.faceNormal(out.face)) > 0.0;
+    const SurfaceMesh& m = objects[oi].mesh;
+    return m.faceNormal(inFace).dot(m.faceNormal(outFace)) > 0.0;
   }
 
   // Two layers pierced in the middle of the object: each gets its own track; they
@@ -4037,7 +4049,8 @@ struct CutEngine::Impl {
           IntervalTimer timer{stats.remeshSeconds};
           startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up,
                     stillSincePrev && prevSegs.size() == segs.size() ? &prevSegs[static_cast<std::size_t>(h.segment)]
-                                                                     : nullptr);
+                                                                     : nullptr,
+                    hs.motionAtPrev != motionCount);
         }
         debugScan("startPair");
         continue;

@@ -819,6 +819,24 @@ TEST(CutterPropertySeeds, MovingExitBottomLayerLosingTheBladeFirstWaitsForItsPar
   }
 }
 
+// A stroke whose blade first clipped a bulge of the moving side y = 0 at the top (in
+// and out 0.12 mm apart, z = 1.81 and 1.93; the clip started nothing) and went through
+// both layers at the next substep (seed 40222). The clip's crossings were within the
+// matching radius (2.5 mm, wider than the slab) of both new ones, so the pair was
+// taken as through both layers at the last sample and started as a pierce 0.3 mm
+// inside the side: the tunnel cut out at the far side and the piece stayed attached
+// by that strip. On moved tissue a clip is no longer through both layers: it slides in.
+// (40553, 40679, 40927: the same at LD_PROPERTY_SCALE=50.)
+TEST(CutterPropertySeeds, MovingEntryAfterAClippedBulgeSlidesInAndFreesThePiece) {
+  for (unsigned seed : {40222u, 40553u, 40679u, 40927u})
+    for (const bool still : {true, false}) {
+      const MovingRun r = runMovingSeed(seed, still);
+      EXPECT_EQ(r.error, "") << "seed " << seed << (still ? " still" : " moving");
+      EXPECT_TRUE(r.separated) << "seed " << seed << (still ? " still" : " moving");
+      EXPECT_EQ(r.walkFailures, 0) << "seed " << seed << (still ? " still" : " moving");
+    }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
