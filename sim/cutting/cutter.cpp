@@ -4026,6 +4026,24 @@ struct CutEngine::Impl {
         continue;
       }
       std::size_t j = i + 1;
+      // On moved tissue the edge may go in, out, in and out of a side the motion pinched
+      // in (within the matching radius): two pairs there each lost their inner track as
+      // the pinch was cut and went on as unpaired grooves. The outer crossings make the
+      // pair; clips of a bulge are left to clipsBulge.
+      auto pinched = [&] {
+        if (!movedSincePrev || !prevPose || restart || j + 2 >= hits.size() || !closedObject(h.object)) return false;
+        for (std::size_t k = i; k <= j + 2; ++k)
+          if (hits[k].used || trackOfHit[k] >= 0 || hits[k].object != h.object || hits[k].segment != h.segment ||
+              hits[k].dir != ((k - i) % 2 == 0 ? 1 : -1) || kindOf(hits[k]) != kSurface || onStrokeLip(hs, hits[k]))
+            return false;
+        return !clipsBulge(hits[i], hits[j], false) && !clipsBulge(hits[j + 1], hits[j + 2], false) &&
+               (hits[j + 1].point - hits[j].point).norm() < p.matchRadius;
+      };
+      if (pinched()) {
+        if (dbg()) std::cerr << "pinch of " << (hits[j + 1].point - hits[j].point).norm() << " crossed\n";
+        hits[j].used = hits[j + 1].used = true;
+        j += 2;
+      }
       // Two new crossings close together beside a cut this edge is making: the blade
       // grazes a fold of the surface (a lip the moving tissue curled), not two layers.
       auto besideCut = [&](const Hit& x) {

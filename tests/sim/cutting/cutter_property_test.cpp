@@ -837,6 +837,21 @@ TEST(CutterPropertySeeds, MovingEntryAfterAClippedBulgeSlidesInAndFreesThePiece)
     }
 }
 
+// Strokes coming in over a side the motion had pinched in (LD_PROPERTY_SCALE=50): the
+// blade's edge went in, out, in and out of that side in one sample (out to in 0.08 to
+// 1.43 mm apart), so two pairs started there. Cutting on cut the pinch: each pair's inner
+// track lost the blade and ended, the outer ones went on as unpaired grooves, ended as
+// grooves at the far side and the piece stayed attached (41261: one walk failure as
+// well). The outer crossings now make the one pair.
+TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideStartsOnePair) {
+  for (unsigned seed : {40504u, 40773u, 40994u, 41218u, 41233u, 41261u, 41566u}) {
+    const MovingRun r = runMovingSeed(seed);
+    EXPECT_EQ(r.error, "") << "seed " << seed;
+    EXPECT_TRUE(r.separated) << "seed " << seed;
+    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
+  }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
