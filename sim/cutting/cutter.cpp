@@ -2366,6 +2366,7 @@ struct CutEngine::Impl {
   }
 
   bool movedSincePrev = false;  // the tissue moved since the hand's last sample (processSample)
+  bool stepMoved = false;       // ... since the hand's last step (all its substeps)
   bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
   bool liftCutOut = false;  // cutOut as the hand lifts (leavingOverSide): no slivers
   // The track's tip is on a wall of another cut (a wall face not of this cut).
@@ -2587,7 +2588,12 @@ struct CutEngine::Impl {
       if (Track* P = trackById(t.partner); t.alive && P) joinStart(t.dir < 0 ? t : *P, t.dir < 0 ? *P : t);
     for (auto& t : hs.tracks) {
       Track* P = trackById(t.partner);
-      if (!t.alive || !P || !P->alive || !leavingOverSide(t, *P)) continue;
+      if (!t.alive || !P || !P->alive) continue;
+      // On tissue that moved the side bows and the blade's lower end lags: either
+      // crossing next to the side will do (moving seeds 40664, 41125).
+      if (!leavingOverSide(t, *P) &&
+          !(stepMoved && (leavingOverSide(t, *P, &t.pending) || leavingOverSide(t, *P, &P->pending))))
+        continue;
       const bool pFront = t.chain.empty() || t.chain.back() != P->tip;  // whose front ends at the other's tip
       Track& A = pFront ? *P : t;
       Track& B = pFront ? t : *P;
@@ -2614,7 +2620,7 @@ struct CutEngine::Impl {
   static const Vec3& lastMotionOf(const Track& A, const Track& B) {
     return A.lastMotion.squaredNorm() > 0.0 ? A.lastMotion : B.lastMotion;
   }
-  bool leavingOverSide(const Track& A, const Track& B) {
+  bool leavingOverSide(const Track& A, const Track& B, const Vec3* at = nullptr) {
     if (A.tunnel || B.tunnel || A.object != B.object || !A.hasPending || !B.hasPending || !A.tip.isValid() ||
         !B.tip.isValid() || !closedObject(A.object))
       return false;
@@ -2623,8 +2629,8 @@ struct CutEngine::Impl {
     const std::size_t oi = static_cast<std::size_t>(indexOf(A.object));
     syncBvh(oi);
     const SurfaceMesh& m = objects[oi].mesh;
-    const auto near =
-        collision::nearestOnSurface(m, bvhs[oi], 0.5 * (A.pending + B.pending), 3.0 * p.snapDistance, scratchFaces);
+    const auto near = collision::nearestOnSurface(m, bvhs[oi], at ? *at : 0.5 * (A.pending + B.pending),
+                                                  3.0 * p.snapDistance, scratchFaces);
     return near.face.isValid() && m.faceNormal(near.face).dot(motion) > 0.0;
   }
 
@@ -4296,6 +4302,7 @@ StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
       hs.hasPrev = false;
     }
     if (!hs.hasPrev) {
+      I.stepMoved = false;
       I.processSample(hs, tool, pose, nullptr, true, false);
     } else {
       const auto a = instruments::segments(tool, hs.prev, I.p.tool);
@@ -4304,6 +4311,7 @@ StepResult CutEngine::step(Hand hand, Tool tool, const Pose& pose) {
       for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
         disp = std::max({disp, (a[i].a - b[i].a).norm(), (a[i].b - b[i].b).norm()});
       const int n = std::clamp(static_cast<int>(std::ceil(disp / I.p.maxSubstep)), 1, I.p.maxSubsteps);
+      I.stepMoved = hs.motionAtPrev != I.motionCount;
       Pose prev = hs.prev;
       for (int k = 1; k <= n; ++k) {
         const Pose cur = k == n ? pose : lerpPose(hs.prev, pose, static_cast<double>(k) / n);

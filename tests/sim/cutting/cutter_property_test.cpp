@@ -852,6 +852,21 @@ TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideStartsOnePair) {
   }
 }
 
+// Strokes whose hand lifted just past the side they leave over, at a glancing angle
+// (LD_PROPERTY_SCALE=50): the moving side had bowed out and the blade's lower end lagged,
+// so both layers still had the blade, their crossings 0.10-0.35 mm inside. Their midpoint
+// was farther than leavingOverSide's reach from the side, the pair ended where it was and
+// the piece stayed attached by a strip of the side. On tissue that moved, either crossing
+// next to the side now makes the pair cut out as the hand lifts.
+TEST(CutterPropertySeeds, MovingStrokeLiftedWithOneCrossingAtTheSideFreesThePiece) {
+  for (unsigned seed : {40664u, 41125u}) {
+    const MovingRun r = runMovingSeed(seed);
+    EXPECT_EQ(r.error, "") << "seed " << seed;
+    EXPECT_TRUE(r.separated) << "seed " << seed;
+    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
+  }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
