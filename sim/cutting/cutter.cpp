@@ -2366,7 +2366,7 @@ struct CutEngine::Impl {
   }
 
   bool movedSincePrev = false;  // the tissue moved since the hand's last sample (processSample)
-  bool stepMoved = false;       // ... since the hand's last step (all its substeps)
+  bool stepMoved = false;       // ... since the hand's last step (set by step(), for all its substeps)
   bool wallCutOut = false;  // cutOut across another cut's wall: no slivers, no rung
   bool liftCutOut = false;  // cutOut as the hand lifts (leavingOverSide): no slivers
   // The track's tip is on a wall of another cut (a wall face not of this cut).
@@ -4074,7 +4074,7 @@ struct CutEngine::Impl {
           startPair(hs, hits[j], hits[i], motionOf(h.segment), bladeOf(h.segment), pose.up,
                     stillSincePrev && prevSegs.size() == segs.size() ? &prevSegs[static_cast<std::size_t>(h.segment)]
                                                                      : nullptr,
-                    hs.motionAtPrev != motionCount);
+                    stepMoved);
         }
         debugScan("startPair");
         continue;
