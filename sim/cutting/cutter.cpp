@@ -4035,9 +4035,10 @@ struct CutEngine::Impl {
       // On moved tissue the edge may go in, out, in and out of a side the motion pinched
       // in (within the matching radius): two pairs there each lost their inner track as
       // the pinch was cut and went on as unpaired grooves. The outer crossings make the
-      // pair; clips of a bulge are left to clipsBulge.
+      // pair; clips of a bulge are left to clipsBulge. (stepMoved, not movedSincePrev: the
+      // motion before the step made the pinch, and a later substep, counted as still, meets it.)
       auto pinched = [&] {
-        if (!movedSincePrev || !prevPose || restart || j + 2 >= hits.size() || !closedObject(h.object)) return false;
+        if (!stepMoved || !prevPose || restart || j + 2 >= hits.size() || !closedObject(h.object)) return false;
         for (std::size_t k = i; k <= j + 2; ++k)
           if (hits[k].used || trackOfHit[k] >= 0 || hits[k].object != h.object || hits[k].segment != h.segment ||
               hits[k].dir != ((k - i) % 2 == 0 ? 1 : -1) || kindOf(hits[k]) != kSurface || onStrokeLip(hs, hits[k]))

@@ -852,6 +852,17 @@ TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideStartsOnePair) {
   }
 }
 
+// The same pinch met on a later substep of a step (seed 41399, LD_PROPERTY_SCALE=50):
+// that substep counted as still, so the pinch rule (then on moved-since-last-sample
+// only) let two pairs start, both inner tracks ended and the outer two went on as
+// grooves. The rule now holds for every substep of a step the tissue moved in.
+TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideOnALaterSubstepStartsOnePair) {
+  const MovingRun r = runMovingSeed(41399u);
+  EXPECT_EQ(r.error, "");
+  EXPECT_TRUE(r.separated);
+  EXPECT_EQ(r.walkFailures, 0);
+}
+
 // Strokes whose hand lifted just past the side they leave over, at a glancing angle
 // (LD_PROPERTY_SCALE=50): the moving side had bowed out and the blade's lower end lagged,
 // so both layers still had the blade, their crossings 0.10-0.35 mm inside. Their midpoint
