@@ -4066,6 +4066,25 @@ struct CutEngine::Impl {
         hits[i].used = hits[j].used = true;
         continue;
       }
+      // On moved tissue, such a graze just outside a pair's crossing on a wavy side (its
+      // inner crossing within the matching radius of that layer's crossing) is the layer
+      // itself coming in over the dent: two grooves started there took both layers'
+      // crossings at the next sample and split the pair at once (moving seeds 40339,
+      // 41148, 41338). Nothing starts; the pair's track takes the layer.
+      auto outsidePair = [&](std::size_t inner, std::size_t nb) {
+        if (nb >= hits.size() || trackOfHit[nb] < 0 || hits[nb].object != h.object || hits[nb].segment != h.segment ||
+            hits[nb].dir != -hits[inner].dir)
+          return false;
+        const Track& t = hs.tracks[static_cast<std::size_t>(trackOfHit[nb])];
+        return t.partner >= 0 && (hits[nb].point - hits[inner].point).norm() < p.matchRadius;
+      };
+      if (inOut && movedSincePrev && !restart && trackOfHit[j] < 0 &&
+          (hits[j].point - h.point).norm() < foldThickness() &&
+          (outsidePair(j, j + 1) || (i > 0 && outsidePair(i, i - 1)))) {
+        if (dbg()) std::cerr << "graze outside a pair at " << h.point.transpose() << "\n";
+        hits[i].used = hits[j].used = true;
+        continue;
+      }
       if (inOut && !((hits[j].point - h.point).norm() < foldThickness() && besideCut(h)) && !onStrokeLip(hs, hits[j])) {
         hits[i].used = hits[j].used = true;
         if (!mayStart(hs, h.object, h.segment, 2)) continue;

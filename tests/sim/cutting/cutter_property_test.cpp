@@ -878,6 +878,22 @@ TEST(CutterPropertySeeds, MovingStrokeLiftedWithOneCrossingAtTheSideFreesThePiec
   }
 }
 
+// Strokes coming in over a wavy moving side (LD_PROPERTY_SCALE=50): the pair started on
+// the side's middle lobe (z 0.8-1.2 mm) and at the next sample the bottom layer came in
+// below it as an in and out 0.11-0.33 mm apart, just outside the pair's lower crossing
+// (and on 41338 the top one above its upper). Taken for a graze beside the cut, each
+// started a groove; at the next sample the grooves took both layers' crossings, the pair
+// cut out with both tips on its start vertex (nothing cut) and ended, and the grooves cut
+// on unpaired to the far side. Nothing starts on such a graze now.
+TEST(CutterPropertySeeds, MovingEntryGrazeOutsideThePairStartsNothing) {
+  for (unsigned seed : {40339u, 41148u, 41338u}) {
+    const MovingRun r = runMovingSeed(seed);
+    EXPECT_EQ(r.error, "") << "seed " << seed;
+    EXPECT_TRUE(r.separated) << "seed " << seed;
+    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
+  }
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
