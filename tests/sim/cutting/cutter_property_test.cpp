@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <iostream>
 #include <map>
 #include <random>
@@ -725,6 +726,25 @@ TEST(CutterPropertySeeds, DiscDeepen22417SlideInOnAFreedPillowKeepsItManifold) {
   EXPECT_EQ(runDeepenSeed(shapes()[2], 22417), "");
 }
 
+// The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
+enum class Runs { Moving, Still, StillAndMoving };
+
+// Every seed's stroke frees its piece without error in `runs`; with `noWalkFailures`,
+// no walk fails either.
+void expectMovingSeedsFreed(std::initializer_list<unsigned> seeds, Runs runs, bool noWalkFailures) {
+  for (unsigned seed : seeds)
+    for (const bool still : {true, false}) {
+      if ((still && runs == Runs::Moving) || (!still && runs == Runs::Still)) continue;
+      const MovingRun r = runMovingSeed(seed, still);
+      const std::string what = "seed " + std::to_string(seed) + (still ? " still" : " moving");
+      EXPECT_EQ(r.error, "") << what;
+      EXPECT_TRUE(r.separated) << what;
+      if (noWalkFailures) {
+        EXPECT_EQ(r.walkFailures, 0) << what;
+      }
+    }
+}
+
 // Moving-tissue strokes replayed still (runMovingSeed without physics) that left their
 // piece attached (LD_PROPERTY_SCALE=50: 9 of 1600; these 4 fixed): the blade left the slab
 // with both layers' tips on one vertical edge of the side face, and the last step put the
@@ -732,23 +752,14 @@ TEST(CutterPropertySeeds, DiscDeepen22417SlideInOnAFreedPillowKeepsItManifold) {
 // area and could not close. That vertex now keeps off the tips' edge (else the front
 // waits), and the piece comes free.
 TEST(CutterPropertySeeds, MovingStillExitAlongASideEdgeFreesThePiece) {
-  for (unsigned seed : {40077u, 40859u, 40889u, 41506u}) {
-    const MovingRun r = runMovingSeed(seed, true);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40077u, 40859u, 40889u, 41506u}, Runs::Still, false);
 }
 
 // Strokes that end with the blade leaving over a side at a glancing angle, tilted so
 // that its lower end is still in the bottom face: the pair cuts out as the hand lifts
 // (before, the top layer's tip was left 1 mm up the side face: seed 40791).
 TEST(CutterPropertySeeds, MovingStrokeLiftedAsTheBladeLeavesOverASideFreesThePiece) {
-  for (unsigned seed : {40791u, 40965u, 41250u, 41281u})
-    for (const bool still : {true, false}) {
-      const MovingRun r = runMovingSeed(seed, still);
-      EXPECT_EQ(r.error, "") << "seed " << seed << (still ? " still" : " moving");
-      EXPECT_TRUE(r.separated) << "seed " << seed << (still ? " still" : " moving");
-    }
+  expectMovingSeedsFreed({40791u, 40965u, 41250u, 41281u}, Runs::StillAndMoving, false);
 }
 
 // Strokes whose blade first meets a side face the pre-stretched tissue bowed out
@@ -759,20 +770,14 @@ TEST(CutterPropertySeeds, MovingStrokeLiftedAsTheBladeLeavesOverASideFreesThePie
 // groove. Such a clip now starts nothing; the pair starts a sample later, on crossings
 // that have parted.
 TEST(CutterPropertySeeds, MovingEntryClippingABowedSideFreesThePiece) {
-  for (unsigned seed : {40053u, 40211u, 40299u}) {
-    const MovingRun r = runMovingSeed(seed);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40053u, 40211u, 40299u}, Runs::Moving, false);
 }
 // Seed 41027 (LD_PROPERTY_SCALE=50): with the clip above alone, the blade going on past
 // the side it had just cut out over met a fold of that side, in and out 0.027 mm apart
 // through faces not facing the same way, and cut it out as a third object. On moving
 // tissue a pair that thin is a clip too.
 TEST(CutterPropertySeeds, MovingFoldPastTheExitIsNotCutOutAsAPiece) {
-  const MovingRun r = runMovingSeed(41027u);
-  EXPECT_EQ(r.error, "");
-  EXPECT_TRUE(r.separated);
+  expectMovingSeedsFreed({41027u}, Runs::Moving, false);
 }
 
 // A stroke leaving over a side the pre-stretch bowed out, with physics between samples
@@ -782,11 +787,7 @@ TEST(CutterPropertySeeds, MovingFoldPastTheExitIsNotCutOutAsAPiece) {
 // the other tip was one: it found no way, both tracks ended and the piece stayed
 // attached. The cut-out now cuts along that edge.
 TEST(CutterPropertySeeds, MovingExitWithTipsJoinedByASurfaceEdgeFreesThePiece) {
-  for (const bool still : {true, false}) {
-    const MovingRun r = runMovingSeed(40007u, still);
-    EXPECT_EQ(r.error, "") << (still ? "still" : "moving");
-    EXPECT_TRUE(r.separated) << (still ? "still" : "moving");
-  }
+  expectMovingSeedsFreed({40007u}, Runs::StillAndMoving, false);
 }
 
 // A stroke leaving over the side y = 0 with physics (seed 40236): the top layer's path had
@@ -797,10 +798,7 @@ TEST(CutterPropertySeeds, MovingExitWithTipsJoinedByASurfaceEdgeFreesThePiece) {
 // failure), the top track ended and the piece stayed attached. A crossing on that lip now
 // holds the track, and the pair cuts out.
 TEST(CutterPropertySeeds, MovingExitCrossingBackOnTheCutsLipFreesThePiece) {
-  const MovingRun r = runMovingSeed(40236u);
-  EXPECT_EQ(r.error, "");
-  EXPECT_TRUE(r.separated);
-  EXPECT_EQ(r.walkFailures, 0);
+  expectMovingSeedsFreed({40236u}, Runs::Moving, true);
 }
 
 // Strokes leaving over a side with physics whose bottom layer's crossing climbed the side
@@ -811,12 +809,7 @@ TEST(CutterPropertySeeds, MovingExitCrossingBackOnTheCutsLipFreesThePiece) {
 // the top one then ended as a groove and the piece stayed attached. A layer that loses the
 // blade next to the side it is leaving over now waits for its partner, and they cut out.
 TEST(CutterPropertySeeds, MovingExitBottomLayerLosingTheBladeFirstWaitsForItsPartner) {
-  for (unsigned seed : {40174u, 40182u}) {
-    const MovingRun r = runMovingSeed(seed);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40174u, 40182u}, Runs::Moving, true);
 }
 
 // A stroke whose blade first clipped a bulge of the moving side y = 0 at the top (in
@@ -828,13 +821,7 @@ TEST(CutterPropertySeeds, MovingExitBottomLayerLosingTheBladeFirstWaitsForItsPar
 // by that strip. On moved tissue a clip is no longer through both layers: it slides in.
 // (40553, 40679, 40927: the same at LD_PROPERTY_SCALE=50.)
 TEST(CutterPropertySeeds, MovingEntryAfterAClippedBulgeSlidesInAndFreesThePiece) {
-  for (unsigned seed : {40222u, 40553u, 40679u, 40927u})
-    for (const bool still : {true, false}) {
-      const MovingRun r = runMovingSeed(seed, still);
-      EXPECT_EQ(r.error, "") << "seed " << seed << (still ? " still" : " moving");
-      EXPECT_TRUE(r.separated) << "seed " << seed << (still ? " still" : " moving");
-      EXPECT_EQ(r.walkFailures, 0) << "seed " << seed << (still ? " still" : " moving");
-    }
+  expectMovingSeedsFreed({40222u, 40553u, 40679u, 40927u}, Runs::StillAndMoving, true);
 }
 
 // Strokes coming in over a side the motion had pinched in (LD_PROPERTY_SCALE=50): the
@@ -844,12 +831,7 @@ TEST(CutterPropertySeeds, MovingEntryAfterAClippedBulgeSlidesInAndFreesThePiece)
 // grooves at the far side and the piece stayed attached (41261: one walk failure as
 // well). The outer crossings now make the one pair.
 TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideStartsOnePair) {
-  for (unsigned seed : {40504u, 40773u, 40994u, 41218u, 41233u, 41261u, 41566u}) {
-    const MovingRun r = runMovingSeed(seed);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40504u, 40773u, 40994u, 41218u, 41233u, 41261u, 41566u}, Runs::Moving, true);
 }
 
 // The same pinch met on a later substep of a step (seed 41399, LD_PROPERTY_SCALE=50):
@@ -857,10 +839,7 @@ TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideStartsOnePair) {
 // only) let two pairs start, both inner tracks ended and the outer two went on as
 // grooves. The rule now holds for every substep of a step the tissue moved in.
 TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideOnALaterSubstepStartsOnePair) {
-  const MovingRun r = runMovingSeed(41399u);
-  EXPECT_EQ(r.error, "");
-  EXPECT_TRUE(r.separated);
-  EXPECT_EQ(r.walkFailures, 0);
+  expectMovingSeedsFreed({41399u}, Runs::Moving, true);
 }
 
 // Strokes whose hand lifted just past the side they leave over, at a glancing angle
@@ -870,12 +849,7 @@ TEST(CutterPropertySeeds, MovingEntryOverAPinchedSideOnALaterSubstepStartsOnePai
 // the piece stayed attached by a strip of the side. On tissue that moved, either crossing
 // next to the side now makes the pair cut out as the hand lifts.
 TEST(CutterPropertySeeds, MovingStrokeLiftedWithOneCrossingAtTheSideFreesThePiece) {
-  for (unsigned seed : {40664u, 41125u}) {
-    const MovingRun r = runMovingSeed(seed);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40664u, 41125u}, Runs::Moving, true);
 }
 
 // Strokes coming in over a wavy moving side (LD_PROPERTY_SCALE=50): the pair started on
@@ -886,12 +860,7 @@ TEST(CutterPropertySeeds, MovingStrokeLiftedWithOneCrossingAtTheSideFreesThePiec
 // cut out with both tips on its start vertex (nothing cut) and ended, and the grooves cut
 // on unpaired to the far side. Nothing starts on such a graze now.
 TEST(CutterPropertySeeds, MovingEntryGrazeOutsideThePairStartsNothing) {
-  for (unsigned seed : {40339u, 41148u, 41338u}) {
-    const MovingRun r = runMovingSeed(seed);
-    EXPECT_EQ(r.error, "") << "seed " << seed;
-    EXPECT_TRUE(r.separated) << "seed " << seed;
-    EXPECT_EQ(r.walkFailures, 0) << "seed " << seed;
-  }
+  expectMovingSeedsFreed({40339u, 41148u, 41338u}, Runs::Moving, true);
 }
 
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
@@ -900,12 +869,7 @@ TEST(CutterPropertySeeds, MovingEntryGrazeOutsideThePairStartsNothing) {
 // vertex is the cut's own), the track restarted as a groove and the piece stayed
 // attached, with and without physics; the walk now splits the edge beside it.
 TEST(CutterPropertySeeds, Moving40808LCornerTurningBackPastItsLastSplitFreesThePiece) {
-  for (const bool still : {true, false}) {
-    const MovingRun r = runMovingSeed(40808u, still);
-    EXPECT_EQ(r.error, "") << (still ? "still" : "moving");
-    EXPECT_TRUE(r.separated) << (still ? "still" : "moving");
-    EXPECT_EQ(r.walkFailures, 0) << (still ? "still" : "moving");
-  }
+  expectMovingSeedsFreed({40808u}, Runs::StillAndMoving, true);
 }
 
 // A hook whose pedal comes up and goes down again with the blade through both layers
