@@ -82,6 +82,9 @@ struct Hit {
   int dir = 0;  // +1: the edge (a->b) enters the material here, -1: leaves it
   Vec3 depth = Vec3::Zero();
   bool used = false;
+  // A sheet's track ended on a slit between its tip and this crossing (advance): the way
+  // back to that tip and the plane the walk followed, for the new track's start.
+  Vec3 rimBack = Vec3::Zero(), rimNormal = Vec3::Zero();
 };
 
 // Set of vertex handles without a heap node per element (open addressing, linear
@@ -148,6 +151,7 @@ struct Track {
   Vec3 start = Vec3::Zero();
   Vec3 startDepth = Vec3::Zero();
   Vec3 startMotion = Vec3::Zero();  // the edge's motion when the track began
+  Vec3 startBack = Vec3::Zero(), startNormal = Vec3::Zero();  // Hit::rimBack, rimNormal
   Vec3 startBlade = Vec3::Zero();
   Face startFace;
   // The cut so far ends at `tip`. The front of the opening runs from tip through
@@ -1936,6 +1940,7 @@ struct CutEngine::Impl {
   // and advance ends the track there: the crossing starts a new one beyond. (A groove
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
+  bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
   // From v: would the sweep plane's curve (heading `forward` first) go past the blade's
   // end (`end`, the crossing's depth: the end of a groove's blade, the middle of a
   // tunnel's) by more than the snapping distance before it reaches the goal's face, or
@@ -2160,6 +2165,7 @@ struct CutEngine::Impl {
       }
       if (!found) {
         if (dbg()) std::cerr << "walk: no candidate at " << pv.transpose() << " step " << step << "\n";
+        walkAtRim = !closedObject(tr.object) && m.isBoundary(v);
         return false;
       }
       if (sgn == 0) sgn = best.sign;
@@ -2339,6 +2345,15 @@ struct CutEngine::Impl {
       // starts the cut on that edge (cut-in), wherever the first sample caught it.
       const Vec3 n = sweepNormal(tr.start, tr.start + tr.startMotion, tr.startBlade, tr.startMotion);
       if (!n.isZero()) v = entryVertex(tr.object, f, tr.start, n, -tr.startMotion, true);
+      Edge rim;
+      Vec3 at;
+      Vertex corner;
+      const bool slit = tr.startBack.norm() > 0.0;  // restarting past a slit: its walk's plane
+      if (!v.isValid() && !n.isZero() && !closedObject(tr.object) &&
+          rimBehind(m, f, tr.start, slit ? tr.startNormal : n, slit ? tr.startBack : Vec3(-tr.startMotion),
+                    (slit ? tr.startBack : tr.startMotion).norm() + p.snapDistance, rim, at, corner)) {
+        v = corner.isValid() ? corner : pointOnEdge(tr.object, rim, at);
+      }
     }
     if (!v.isValid()) v = insertPoint(tr.object, f, tr.start);
     ++stats.trianglesCut;
@@ -2460,17 +2475,24 @@ struct CutEngine::Impl {
       // (A cut-through's layers wait on an earlier cut's wall for each other instead.)
       g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
-      walkAtLip = false;
+      walkAtLip = walkAtRim = false;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
-    if (!ok && walkAtLip) {
+    if (!ok && (walkAtLip || walkAtRim)) {
       // An earlier cut's lip, the blade's point across its gap: the track ends here and
-      // the hit starts a new one beyond.
-      if (dbg()) std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip\n";
+      // the hit starts a new one beyond. On a sheet the slit (or the rim) itself: no
+      // tissue joins the tip to the point, and the new track starts on the far lip, on
+      // this walk's plane (commitStart: rimBehind).
+      if (dbg())
+        std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip (sheet " << walkAtRim << ")\n";
       ++stats.lipStops;
       tr.hasPending = false;
       end(tr);
       h.used = false;
+      if (walkAtRim) {
+        h.rimBack = from - h.point;
+        h.rimNormal = n;
+      }
       return;
     }
     if (!ok && walkBlockedAt.isValid()) {
@@ -2936,6 +2958,62 @@ struct CutEngine::Impl {
     return pointOnEdge(obj, e, bestQ);
   }
 
+  // On a sheet: the rim (its outer edge or an earlier cut's slit) behind P, where the
+  // plane through P (normal n) leaves the surface going `back` from face f, within
+  // maxLen. A blade that crossed a slit in one sample came in over that slit's far lip,
+  // not over f's own edges (entryVertex): the cut starts there, next to the lip the
+  // track before it reached.
+  bool rimBehind(const SurfaceMesh& m, Face f, const Vec3& P, const Vec3& n, const Vec3& back, double maxLen, Edge& rim,
+                 Vec3& at, Vertex& corner) const {
+    auto side = [&](Vertex x) { return n.dot(m.position(x) - P); };
+    const double eps = 1e-10 * scaleOf(P);
+    corner = Vertex();
+    Edge from;  // the edge the trace came in over
+    Vec3 q = P;
+    double len = 0.0;
+    for (int i = 0; i < 64 && len <= maxLen; ++i) {
+      Edge exit;
+      Vec3 x = q;
+      double bestScore = 0.0;
+      for (Edge e : m.edges(f)) {
+        if (e == from) continue;
+        const double sa = side(m.vertex(e, 0)), sb = side(m.vertex(e, 1));
+        if (std::abs(sa) <= eps || std::abs(sb) <= eps || (sa > 0) == (sb > 0)) continue;  // a corner on it: below
+        const Vec3 c =
+            m.position(m.vertex(e, 0)) + (m.position(m.vertex(e, 1)) - m.position(m.vertex(e, 0))) * (sa / (sa - sb));
+        const double score = i == 0 ? (c - P).dot(back) : 1.0;
+        if (score > bestScore) {
+          bestScore = score;
+          exit = e;
+          x = c;
+        }
+      }
+      if (!exit.isValid()) {
+        // The plane through a corner of the rim (a slit's vertex the walk before it
+        // reached, or its copy): start there.
+        for (Vertex c : m.vertices(f))
+          if (std::abs(side(c)) <= eps && m.isBoundary(c) && (m.position(c) - q).dot(back) > 0.0 &&
+              len + (m.position(c) - q).norm() <= maxLen) {
+            corner = c;
+            return true;
+          }
+        return false;
+      }
+      len += (x - q).norm();
+      q = x;
+      if (len > maxLen) return false;
+      if (m.isBoundary(exit)) {
+        rim = exit;
+        at = x;
+        return true;
+      }
+      f = m.otherFace(exit, f);
+      from = exit;
+      if (!f.isValid()) return false;
+    }
+    return false;
+  }
+
   // The blade's edge at the last sample (prev) went in and out of the object next to
   // where it now crosses it (h1 in, h0 out; within the radius a track would have
   // matched them): it was through both layers already, not outside them. Not on tissue
@@ -3128,6 +3206,8 @@ struct CutEngine::Impl {
     t.start = h.point;
     t.startDepth = h.depth;
     t.startFace = h.face;
+    t.startBack = h.rimBack;
+    t.startNormal = h.rimNormal;
     t.tipDepth = h.depth;
     t.pending = h.point;
     t.pendingDepth = h.depth;

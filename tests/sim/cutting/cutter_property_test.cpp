@@ -143,7 +143,7 @@ std::string check(const CutEngine& e, bool closed, double heightFloor, long pinc
 }
 
 // One random stroke (possibly several strokes on the same mesh) from a seed.
-std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3) {
+std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, std::size_t* objectsLeft = nullptr) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   mesh::SurfaceMesh m = shape.make();
@@ -195,6 +195,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3) {
   }
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
+  if (objectsLeft) *objectsLeft = e.objects().size();
   return {};
 }
 
@@ -906,6 +907,29 @@ void expectSlabSeedEndsOnALip(unsigned seed) {
 }
 TEST(CutterPropertySeeds, Slab1004GrooveAcrossAnEarlierSlotEndsOnItsLip) { expectSlabSeedEndsOnALip(1004); }
 TEST(CutterPropertySeeds, Slab1394TunnelAlongAGroovesLipEndsOnIt) { expectSlabSeedEndsOnALip(1394); }
+
+// A cut on the sheet crossing an earlier cut's slit (LD_PROPERTY_SCALE=10): the walk
+// reached the near lip and found no way on (the slit is the sheet's rim there), a walk
+// failure, and the crossing started a new track inside its face, leaving the stretch
+// from the far lip to it uncut: the piece the strokes enclose stayed attached by it.
+// Now the track ends on the lip and the new one starts on the far lip, on the walk's
+// plane. sheet 5024 and 5056: one walk failure each, the sheet in one piece; now none,
+// and two pieces.
+void expectSheetSeedGoesOnFromTheFarLip(unsigned seed) {
+  resetSeen();
+  std::size_t objects = 0;
+  EXPECT_EQ(runSeed(shapes()[4], seed, 3, &objects), "");
+  std::cout << seenText() << "\n";
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_GE(g_lipStops, 1);
+  EXPECT_EQ(objects, 2u);
+}
+TEST(CutterPropertySeeds, Sheet5024CutAcrossAnEarlierSlitGoesOnFromItsFarLip) {
+  expectSheetSeedGoesOnFromTheFarLip(5024);
+}
+TEST(CutterPropertySeeds, Sheet5056CutAcrossAnEarlierSlitGoesOnFromItsFarLip) {
+  expectSheetSeedGoesOnFromTheFarLip(5056);
+}
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
