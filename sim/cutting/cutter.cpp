@@ -2297,6 +2297,7 @@ struct CutEngine::Impl {
     if (behindTip(tr, h.point)) return true;
     if (!tr.tip.isValid()) return false;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    if (!movedSincePrev && onLipBackward(m, tr, h)) return true;
     const auto kind = m.getFaceProperty<int>(kFaceKindProp);
     if (!m.isValid(h.face) || !kind || (h.point - m.position(tr.tip)).norm() > p.matchRadius) return false;
     return kind[h.face] != kSurface || (movedSincePrev && tr.partner >= 0 && !tr.tunnel && onLipBehind(m, tr, h.face));
@@ -2317,6 +2318,21 @@ struct CutEngine::Impl {
       onCut += tr.visited.count(x) ? 1 : 0;
     }
     return atPrev && onCut >= 2;
+  }
+  // On still tissue: the crossing has gone back along the cut, onto a face along it (two
+  // corners on it), behind the tip. A blade nearly in the face it crosses slides its
+  // crossing along the cut much faster than it moves (on the cylinder's side a diving
+  // blade's crossing climbs back up the path; a blade lying 7 degrees off the top face
+  // moves its crossing 8 x its rise): past the matching radius behindTip let go, the walk
+  // back was stopped by the cut's own vertex and the track ended (deepening seeds 23115,
+  // 23160; disc 3087). Nothing there is left to cut: the track waits for the blade to
+  // come ahead of its tip again.
+  static bool onLipBackward(const SurfaceMesh& m, const Track& tr, const Hit& h) {
+    if (!m.isValid(h.face) || !m.isValid(tr.prevTip)) return false;
+    int onCut = 0;
+    for (Vertex x : m.vertices(h.face)) onCut += tr.visited.count(x) ? 1 : 0;
+    const Vec3 pt = m.position(tr.tip);
+    return onCut >= 2 && (h.point - pt).dot(pt - m.position(tr.prevTip)) < 0.0;
   }
   // No crossing for the track: the blade passes by its tip inside the opening.
   bool holdsWithout(const Track& tr, const instruments::Segment& s) const {

@@ -931,6 +931,22 @@ TEST(CutterPropertySeeds, Sheet5056CutAcrossAnEarlierSlitGoesOnFromItsFarLip) {
   expectSheetSeedGoesOnFromTheFarLip(5056);
 }
 
+// A crossing sliding back along its own cut, past the matching radius, onto a face along
+// the cut (LD_PROPERTY_SCALE=10, still tissue): the walk back was stopped by the cut's own
+// vertex, a walk failure, and the track restarted inside its cut. Now the track waits.
+// disc 3087: two walk failures (a pair's side wall); cylinder deepen 23115: one (a diving
+// blade's crossing climbing back up the side 3.3 mm). Now none.
+TEST(CutterPropertySeeds, Disc3087CrossingBackAlongItsCutWaits) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[2], 3087), "");
+  EXPECT_EQ(g_walkFailures, 0);
+}
+TEST(CutterPropertySeeds, CylinderDeepen23115CrossingBackAlongItsCutWaits) {
+  resetSeen();
+  EXPECT_EQ(runDeepenSeed(shapes()[3], 23115), "");
+  EXPECT_EQ(g_walkFailures, 0);
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
