@@ -717,26 +717,36 @@ LD_AVX512 inline void springs8x2(const BlockStep& c, const Consts512& k, std::si
 // one after the other with the same fused steps as a block's ranks, so the force is
 // bit for bit the one of a block padded to its degree. (The energy is summed 8 wide:
 // its rounding differs.)
+// The lane sums go to memory once a group (not once a vertex), so that one vertex's
+// chain of fused steps does not wait for the previous vertex's through the register
+// they share: the chains of a group's tail vertices overlap.
 template <bool Shared, bool Energy, bool Rsqrt>
 LD_AVX512 inline void tails8(const BlockStep& c, const Consts512& k, std::size_t grp, const __m512d (*xi)[3],
                              __m512d (*f)[3], __m512d& pe) {
-  for (std::uint32_t r = c.tailStart[grp], end = c.tailStart[grp + 1]; r < end;) {
+  const std::uint32_t first = c.tailStart[grp], end = c.tailStart[grp + 1];
+  if (first == end) return;
+  alignas(64) double sum[2][3][8];
+  for (int h = 0; h < 2; ++h)
+    for (int a = 0; a < 3; ++a) _mm512_store_pd(sum[h][a], f[h][a]);
+  for (std::uint32_t r = first; r < end;) {
     const std::uint8_t slot = c.tailSlot[r];
     const std::size_t h = slot / kLanes, lane = slot % kLanes;
     const __m512i at = _mm512_set1_epi64(static_cast<long long>(lane));
     __m512d xb[3];
     for (int a = 0; a < 3; ++a) xb[a] = _mm512_permutexvar_pd(at, xi[h][a]);
-    alignas(64) double sum[3][8], w[8], d[3][8];
-    for (int a = 0; a < 3; ++a) _mm512_store_pd(sum[a], f[h][a]);
+    double s[3] = {sum[h][0][lane], sum[h][1][lane], sum[h][2][lane]};
     for (; r < end && c.tailSlot[r] == slot; ++r) {
+      alignas(64) double w[8], d[3][8];
       __m512d dxyz[3];
       _mm512_store_pd(w, terms8<Shared, Energy, Rsqrt>(c, k, kLanes * r, xb, dxyz, pe));
       for (int a = 0; a < 3; ++a) _mm512_store_pd(d[a], dxyz[a]);
       for (std::size_t u = 0; u < kLanes; ++u)
-        for (int a = 0; a < 3; ++a) sum[a][lane] = std::fma(w[u], d[a][u], sum[a][lane]);
+        for (int a = 0; a < 3; ++a) s[a] = std::fma(w[u], d[a][u], s[a]);
     }
-    for (int a = 0; a < 3; ++a) f[h][a] = _mm512_load_pd(sum[a]);
+    for (int a = 0; a < 3; ++a) sum[h][a][lane] = s[a];
   }
+  for (int h = 0; h < 2; ++h)
+    for (int a = 0; a < 3; ++a) f[h][a] = _mm512_load_pd(sum[h][a]);
 }
 
 // Integration of vertices t … t + rem − 1 (rem ≤ 8; X: their positions, flat, loaded

@@ -10,6 +10,7 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -226,34 +227,39 @@ TEST(SpringKernel, SymplecticStepMatchesTheForcePassOnALargeMesh) {
   expectStepMatchesForcePass(130);
 }
 
-// A grid whose middle vertex gets `extra` more springs (the edges across from it split,
-// as a cut's groove bottom fans out), pushed and moving. Built before the tissue is
-// attached: the step's layout is made once, from the whole mesh.
-void fanScene(Params& p, State& s, int extra) {
+// A grid whose vertices at `hubs` (the middle one by default) get `extra` more springs
+// each (the edges across from them split, as a cut's groove bottom fans out), pushed
+// and moving. Built before the tissue is attached: the step's layout is made once, from
+// the whole mesh.
+void fanScene(Params& p, State& s, int extra, std::initializer_list<Vec3> hubs = {Vec3(100, 100, 0)}) {
   mesh::SurfaceMesh grid = makeGrid(50, 50, 4.0);
-  const mesh::Vertex hub = nearestVertex(grid, Vec3(100, 100, 0));
-  for (int i = 0; i < extra; ++i) {
-    const mesh::Face f = grid.faces(hub)[static_cast<std::size_t>(i) % grid.faces(hub).size()];
-    mesh::Vertex a, b;
-    for (mesh::Vertex v : grid.vertices(f))
-      if (v != hub) (a.isValid() ? b : a) = v;
-    const Vec3 mid = 0.5 * (grid.position(a) + grid.position(b)) + Vec3(0, 0, 0.1 * (i % 3));
-    ASSERT_TRUE(grid.splitEdge(grid.findEdge(a, b), mid).isValid());
+  std::vector<mesh::Vertex> hubVertices;
+  for (const Vec3& at : hubs) {
+    const mesh::Vertex hub = nearestVertex(grid, at);
+    hubVertices.push_back(hub);
+    for (int i = 0; i < extra; ++i) {
+      const mesh::Face f = grid.faces(hub)[static_cast<std::size_t>(i) % grid.faces(hub).size()];
+      mesh::Vertex a, b;
+      for (mesh::Vertex v : grid.vertices(f))
+        if (v != hub) (a.isValid() ? b : a) = v;
+      const Vec3 mid = 0.5 * (grid.position(a) + grid.position(b)) + Vec3(0, 0, 0.1 * (i % 3));
+      ASSERT_TRUE(grid.splitEdge(grid.findEdge(a, b), mid).isValid());
+    }
   }
   p.tissue.gravity = Vec3(0.0, -2.0, -9810.0);
   s = makeState(std::move(grid), p.tissue);
-  s.mesh.position(hub).z() -= 3.0;
+  for (mesh::Vertex hub : hubVertices) s.mesh.position(hub).z() -= 3.0;
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-20.0, 20.0);
   auto& v = s.mesh.getVertexProperty<Vec3>(kVelocityProp).vector();
   for (Vec3& x : v) x = Vec3(u(rng), u(rng), u(rng));
 }
 
-// A vertex of far higher degree than the rest of its block keeps the springs past the
-// block's rank count in tail ranks of its own (instead of padding all 8 lanes to its
-// degree): its group has fewer ranks than it has springs, and on every path, one or two
-// threads, each lane layout, the step still matches the force pass.
-TEST(SpringKernel, AFanVertexSumsItsExtraSpringsInTailRanks) {
+// fanScene with `hubs` on every path, both factors, each lane layout, one and two
+// threads: the step matches the force pass and two threads match one bit for bit;
+// check(state, hub vertices) looks at the layout after the step.
+template <class Check>
+void expectFanStepsMatchForcePass(std::initializer_list<Vec3> hubs, Check&& check) {
   for (Kernel k : compiledKernels())
     for (detail::Factor fac : {detail::Factor::Rsqrt, detail::Factor::SqrtDiv})
       for (bool perSpring : {false, true}) {
@@ -268,24 +274,51 @@ TEST(SpringKernel, AFanVertexSumsItsExtraSpringsInTailRanks) {
           Params p;
           p.threads = threads;
           State s;
-          fanScene(p, s, 24);
-          const mesh::Vertex hub = nearestVertex(s.mesh, Vec3(100, 100, -3));
-          ASSERT_EQ(s.mesh.edges(hub).size(), 30u);
+          fanScene(p, s, 24, hubs);
+          std::vector<mesh::Vertex> hubVertices;
+          for (const Vec3& at : hubs) hubVertices.push_back(nearestVertex(s.mesh, at + Vec3(0, 0, -3)));
           EXPECT_LT(oneStepAgainstForcePass(p, s), 1e-9);
-          const auto& c = s.cache;
-          ASSERT_EQ(c.springs.size(), c.nCsr) << "one layout from the whole mesh";
-          const std::size_t g = hub.idx() / detail::kGroup;
-          const std::uint32_t ranks = c.rankStart[2 * g + 2] - c.rankStart[2 * g] + c.tailStart[g + 1] - c.tailStart[g];
-          EXPECT_LT(ranks, 16u) << "padding both blocks to 30 springs would take 36 ranks";
-          EXPECT_GT(c.tailStart[g + 1], c.tailStart[g]);
-          EXPECT_EQ(c.tailSlot[c.tailStart[g]], c.vertexSlot[hub.idx()]);
-          EXPECT_LT(c.rankX.size(), 11 * 2 * c.nCsr / 10) << "lanes: at most 10 % padding";
+          check(s, hubVertices);
           if (threads == 1)
             oneThread = s.mesh.positions();
           else
             EXPECT_EQ(s.mesh.positions(), oneThread) << "two threads must be bit-identical to one";
         }
       }
+}
+
+// A vertex of far higher degree than the rest of its block keeps the springs past the
+// block's rank count in tail ranks of its own (instead of padding all 8 lanes to its
+// degree): its group has fewer ranks than it has springs, and on every path, one or two
+// threads, each lane layout, the step still matches the force pass.
+TEST(SpringKernel, AFanVertexSumsItsExtraSpringsInTailRanks) {
+  expectFanStepsMatchForcePass({Vec3(100, 100, 0)}, [](const State& s, const std::vector<mesh::Vertex>& hubs) {
+    const mesh::Vertex hub = hubs[0];
+    ASSERT_EQ(s.mesh.edges(hub).size(), 30u);
+    const auto& c = s.cache;
+    ASSERT_EQ(c.springs.size(), c.nCsr) << "one layout from the whole mesh";
+    const std::size_t g = hub.idx() / detail::kGroup;
+    const std::uint32_t ranks = c.rankStart[2 * g + 2] - c.rankStart[2 * g] + c.tailStart[g + 1] - c.tailStart[g];
+    EXPECT_LT(ranks, 16u) << "padding both blocks to 30 springs would take 36 ranks";
+    EXPECT_GT(c.tailStart[g + 1], c.tailStart[g]);
+    EXPECT_EQ(c.tailSlot[c.tailStart[g]], c.vertexSlot[hub.idx()]);
+    EXPECT_LT(c.rankX.size(), 11 * 2 * c.nCsr / 10) << "lanes: at most 10 % padding";
+  });
+}
+
+// Two fan vertices in one group, both in its high-degree block, each with tail ranks
+// (the AVX-512 path folds their tails from one store of the block's sums: each vertex
+// must get its own lane's sum back, and their folds must not mix).
+TEST(SpringKernel, TwoFanVerticesOfOneBlockSumTheirOwnTails) {
+  expectFanStepsMatchForcePass({Vec3(100, 100, 0), Vec3(104, 100, 0)}, [](const State& s,
+                                                                          const std::vector<mesh::Vertex>& hubs) {
+    const auto& c = s.cache;
+    const std::size_t a = hubs[0].idx(), b = hubs[1].idx(), g = a / detail::kGroup;
+    ASSERT_EQ(b / detail::kGroup, g) << "both hubs in one group";
+    ASSERT_EQ(c.vertexSlot[a] / detail::kLanes, c.vertexSlot[b] / detail::kLanes) << "one block";
+    const std::set<std::uint8_t> tailed(c.tailSlot.begin() + c.tailStart[g], c.tailSlot.begin() + c.tailStart[g + 1]);
+    EXPECT_EQ(tailed, (std::set<std::uint8_t>{c.vertexSlot[a], c.vertexSlot[b]}));
+  });
 }
 
 TEST(SpringKernel, ForcesAndMonitoredStepsAgreeAcrossPaths) {
