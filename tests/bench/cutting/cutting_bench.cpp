@@ -229,6 +229,9 @@ void BM_PhysicsStepAfterCuts(benchmark::State& state) {
   state.counters["triangles_cut"] = static_cast<double>(e.stats().trianglesCut);
   state.counters["faces"] = static_cast<double>(st.mesh.nFaces());
   state.counters["lanes"] = static_cast<double>(st.cache.rankX.size());  // spring lanes of the step, padding included
+  state.counters["vertices"] = static_cast<double>(st.mesh.nVertices());
+  // ranks of 8 lanes that sum a high-degree vertex's springs past its block's rank count
+  state.counters["tail_ranks"] = static_cast<double>(st.cache.tailStart.back() - st.cache.rankStart.back());
 }
 BENCHMARK(BM_PhysicsStepAfterCuts)
     ->ArgsProduct({{0, 1000}, {0, 1}, {1}})
