@@ -460,6 +460,63 @@ Vertex SurfaceMesh::splitFace(Face f, const Point& p) {
   return m;
 }
 
+Vertex SurfaceMesh::collapseEdge(Edge e, Vertex keep) {
+  check(e, "collapseEdge");
+  const Vertex x = otherVertex(e, keep);
+  const std::array<Face, 2> fs = efaces_[e];
+  if (!x.isValid() || !fs[0].isValid() || !fs[1].isValid()) return Vertex();
+  const std::array<Vertex, 2> opp{oppositeVertex(fs[0], e), oppositeVertex(fs[1], e)};
+  if (opp[0] == opp[1] || valence(opp[0]) <= 3 || valence(opp[1]) <= 3) return Vertex();
+  for (Edge g : vedges_[x]) {
+    if (!efaces_[g][1].isValid()) return Vertex();
+    const Vertex z = otherVertex(g, x);
+    if (z != keep && z != opp[0] && z != opp[1] && findEdge(keep, z).isValid()) return Vertex();
+  }
+  std::vector<Face> around;
+  faces(x, around);
+  // x's edges to vertices keep has no edge to move to keep (their copies), before any
+  // face is detached.
+  std::vector<std::pair<Vertex, Edge>> moved;
+  for (Edge g : vedges_[x])
+    if (const Vertex z = otherVertex(g, x); z != keep && z != opp[0] && z != opp[1]) moved.emplace_back(z, g);
+  for (Face f : around) detachFace(f);
+  for (Face f : fs) {
+    fdeleted_[f] = 1;
+    ++deletedFaces_;
+  }
+  std::vector<std::pair<Vertex, Edge>> copies;
+  auto toKeep = [&](Vertex z) {
+    for (const auto& [w, c] : copies)
+      if (w == z) return c;
+    for (const auto& [w, g] : moved)
+      if (w == z) {
+        copies.emplace_back(z, newEdgeCopy(g, keep, z));
+        return copies.back().second;
+      }
+    return findEdge(keep, z);
+  };
+  for (Face f : around) {
+    if (f == fs[0] || f == fs[1]) continue;
+    std::array<Vertex, 3> fv = fverts_[f];
+    std::array<Edge, 3> known{};
+    for (Vertex& c : fv)
+      if (c == x) c = keep;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const Vertex a = fv[i], b = fv[(i + 1) % 3];
+      if (a == keep || b == keep) known[i] = toKeep(a == keep ? b : a);
+    }
+    attachFace(f, fv[0], fv[1], fv[2], known);
+  }
+  for (Edge g : EdgeList(vedges_[x])) deleteEmptyEdge(g);
+  for (Face f : fs)
+    for (Edge g : fedges_[f]) deleteEmptyEdge(g);
+  vdeleted_[x] = 1;
+  ++deletedVertices_;
+  record(journalV_, x);
+  ++topologyVersion_;
+  return keep;
+}
+
 std::vector<Face> SurfaceMesh::faces(Vertex v) const {
   std::vector<Face> out;
   faces(v, out);

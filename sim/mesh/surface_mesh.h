@@ -297,6 +297,16 @@ class SurfaceMesh {
   // faces around v. Returns the new vertex, or invalid (mesh unchanged) otherwise.
   Vertex splitVertex(Vertex v, std::span<const Face> fan);
 
+  // Removes interior edge e by merging its end other than `keep` into `keep` (which
+  // keeps its position): e's two faces go, the other faces of the removed vertex move to
+  // `keep` (same handles and properties), and its edges to vertices that `keep` has no
+  // edge to move with them (copies with their properties). Pre: e live, keep an end of
+  // e. Returns keep, or an invalid handle (mesh unchanged) when the result would not be
+  // a manifold: e or an edge at the removed vertex is a boundary edge, the two ends share
+  // a neighbour other than e's two opposite corners (link condition), or an opposite
+  // corner has only three edges (a tetrahedron would fold onto itself).
+  Vertex collapseEdge(Edge e, Vertex keep);
+
   // Disconnects the two faces of interior edge e from each other, duplicating an end
   // vertex whose face fan opens up once e is cut (a boundary vertex, or one on an
   // earlier cut), and the other end too if the two sides would otherwise meet only

@@ -194,6 +194,63 @@ TEST(SurfaceMesh, SplitEdgeOfATwoTrianglePillowIsRefused) {
   EXPECT_VALID(m);
 }
 
+// collapseEdge merges an interior edge's ends when the result stays a manifold: an
+// octahedron's edge collapses into a triangular bipyramid (faces keep handles and
+// properties); a tetrahedron's edges, the bipyramid's equator (its ends share a third
+// neighbour) and a boundary edge are refused, the mesh unchanged.
+TEST(SurfaceMesh, CollapseEdgeKeepsAManifoldOrIsRefused) {
+  SurfaceMesh m;
+  const Vertex px = m.addVertex({1, 0, 0}), nx = m.addVertex({-1, 0, 0}), py = m.addVertex({0, 1, 0}),
+               ny = m.addVertex({0, -1, 0}), pz = m.addVertex({0, 0, 1}), nz = m.addVertex({0, 0, -1});
+  for (const auto& [a, b] : {std::pair{px, py}, {py, nx}, {nx, ny}, {ny, px}}) {
+    ASSERT_TRUE(m.addFace(a, b, pz).isValid());
+    ASSERT_TRUE(m.addFace(b, a, nz).isValid());
+  }
+  ASSERT_TRUE(m.isClosed());
+  auto tag = m.addFaceProperty<int>("tag", 0);
+  for (Face f : m.faces()) tag[f] = static_cast<int>(f.idx()) + 10;
+  std::vector<std::pair<Face, int>> tags;
+  for (Face f : m.faces(px))
+    if (m.localIndex(f, py) < 0) tags.emplace_back(f, tag[f]);
+  EXPECT_EQ(m.collapseEdge(m.findEdge(px, py), py), py);
+  EXPECT_VALID(m);
+  EXPECT_TRUE(m.isClosed());
+  EXPECT_FALSE(m.isValid(px));
+  EXPECT_EQ(m.nVertices(), 5u);
+  EXPECT_EQ(m.nEdges(), 9u);
+  EXPECT_EQ(m.nFaces(), 6u);
+  EXPECT_EQ(m.position(py), Point(0, 1, 0));
+  EXPECT_TRUE(m.findEdge(py, ny).isValid());
+  for (const auto& [f, t] : tags) {
+    EXPECT_TRUE(m.isValid(f));
+    EXPECT_GE(m.localIndex(f, py), 0);
+    EXPECT_EQ(tag[f], t);
+  }
+  double volume = 0.0;  // still outward: the bipyramid's 2/3
+  for (Face f : m.faces()) {
+    const auto& fv = m.vertices(f);
+    volume += m.position(fv[0]).dot(m.position(fv[1]).cross(m.position(fv[2]))) / 6.0;
+  }
+  EXPECT_NEAR(volume, 2.0 / 3.0, 1e-12);
+
+  auto refusedEverywhere = [](SurfaceMesh& mesh, const std::vector<Edge>& edges) {
+    const std::uint64_t version = mesh.topologyVersion();
+    const std::size_t nv = mesh.nVertices(), ne = mesh.nEdges(), nf = mesh.nFaces();
+    for (Edge e : edges)
+      for (int k = 0; k < 2; ++k) EXPECT_FALSE(mesh.collapseEdge(e, mesh.vertex(e, k)).isValid());
+    EXPECT_EQ(mesh.topologyVersion(), version);
+    EXPECT_EQ(mesh.nVertices(), nv);
+    EXPECT_EQ(mesh.nEdges(), ne);
+    EXPECT_EQ(mesh.nFaces(), nf);
+    EXPECT_VALID(mesh);
+  };
+  refusedEverywhere(m, {m.findEdge(py, nx), m.findEdge(nx, ny), m.findEdge(ny, py)});
+  SurfaceMesh t = tetrahedron();
+  refusedEverywhere(t, std::vector<Edge>(t.edges().begin(), t.edges().end()));
+  SurfaceMesh sq = square();
+  refusedEverywhere(sq, std::vector<Edge>(sq.edges().begin(), sq.edges().end()));
+}
+
 TEST(SurfaceMesh, SplitFaceMakesThree) {
   SurfaceMesh m = tetrahedron();
   const Vertex c = m.splitFace(Face(0), m.centroid(Face(0)));
