@@ -2819,7 +2819,79 @@ struct CutEngine::Impl {
     loop.push_back(B.tip);
     for (auto it = A.chain.rbegin() + 1; it != A.chain.rend(); ++it) loop.push_back(*it);
     // loop: A.tip -> path -> B.tip -> chain back toward A.tip (closing edge to A.tip).
+    weldThinCap(A, B, loop);
     return closeLoop(A, loop, !wallCutOut);
+  }
+
+  // How far (in snapping distances) a loop vertex may be welded onto its neighbour, and
+  // how far a face around it may turn doing so.
+  static constexpr double kWeldReach = 5.0;
+  static constexpr double kWeldTurnCos = 0.995;  // ~5.7°
+
+  // A cut-out loop too thin to cap without a sliver (no triangulation is, whatever
+  // points are added): a cut-through leaving over a side face, the lower layer's path
+  // vertex a hair off the rung (tip to tip) next to its end, or two path vertices a hair
+  // apart on a near-straight stretch. Such a vertex is welded onto its neighbour on the
+  // loop (SurfaceMesh::collapseEdge), the best first, while that thickens the cap and
+  // moves no face of the surface much (a flat side face: none) nor makes one thin. The
+  // tips and the rung's ends stay.
+  void weldThinCap(Track& A, Track& B, std::vector<Vertex>& loop) {
+    SurfaceMesh& m = meshOf(A.object);
+    double q = loopQuality(m, loop);
+    while (q < sliverHeight() && loop.size() > 4) {
+      double bestQ = q;
+      std::size_t bestI = 0, bestJ = 0;
+      for (std::size_t i = 1; i + 1 < loop.size(); ++i) {
+        const Vertex x = loop[i];
+        if (x == B.tip) continue;
+        for (const std::size_t j : {i - 1, i + 1}) {
+          const Vertex y = loop[j];
+          if (!((m.position(x) - m.position(y)).norm() <= kWeldReach * p.snapDistance) || !weldKeepsSurface(m, x, y))
+            continue;
+          std::vector<Vertex> rest = loop;
+          rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+          if (const double qi = loopQuality(m, rest); qi > bestQ) {
+            bestQ = qi;
+            bestI = i;
+            bestJ = j;
+          }
+        }
+      }
+      if (!(bestQ > q)) return;
+      const Vertex x = loop[bestI], y = loop[bestJ];
+      std::vector<Face> gone;
+      for (Face f : m.faces(x))
+        if (m.localIndex(f, y) >= 0) gone.push_back(f);
+      if (!m.collapseEdge(m.findEdge(x, y), y).isValid()) return;
+      if (dbg()) std::cerr << "weldThinCap " << x << " onto " << y << " cap " << q << " -> " << bestQ << "\n";
+      ++stats.capWelds;
+      bvhs[static_cast<std::size_t>(indexOf(A.object))].removeFaces(m, gone);
+      loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(bestI));
+      for (Track* t : {&A, &B}) std::erase(t->chain, x);
+      std::vector<Vertex> ring{y};
+      for (Edge e : m.edges(y)) ring.push_back(m.otherVertex(e, y));
+      touchEach(A.object, ring);
+      q = loopQuality(m, loop);
+    }
+  }
+
+  // Whether moving x onto y (collapsing their edge) keeps every other face around x
+  // turned by less than kWeldTurnCos and no thinner than it was or the sliver height.
+  bool weldKeepsSurface(const SurfaceMesh& m, Vertex x, Vertex y) const {
+    for (Face f : m.faces(x)) {
+      if (m.localIndex(f, y) >= 0) continue;
+      std::array<Vec3, 3> c{};
+      std::array<Vec3, 3> after{};
+      for (std::size_t k = 0; k < 3; ++k) {
+        const Vertex v = m.vertices(f)[k];
+        c[k] = m.position(v);
+        after[k] = v == x ? m.position(y) : c[k];
+      }
+      const Vec3 n0 = (c[1] - c[0]).cross(c[2] - c[0]), n1 = (after[1] - after[0]).cross(after[2] - after[0]);
+      if (!(n0.dot(n1) >= kWeldTurnCos * n0.norm() * n1.norm())) return false;
+      if (!(height(after[0], after[1], after[2]) >= std::min(sliverHeight(), height(c[0], c[1], c[2])))) return false;
+    }
+    return true;
   }
 
   // Cuts along a closed loop of edges through both layers and closes both sides with

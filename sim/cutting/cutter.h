@@ -139,6 +139,7 @@ struct CutStats {
   long bottomSlides = 0;           // groove-bottom vertices moved on along the groove (instead of new ones)
   long longestFront = 0;           // most vertices a cut's front (tip to the other side) has had
   long sliverSnaps = 0;            // points moved onto a vertex because a split there would make a sliver
+  long capWelds = 0;               // cut-out loop vertices welded onto a neighbour: the cap was too thin
   long lipCrossings = 0;           // crossings on the lip or wall of the stroke's own cut (a fold): no track started
   long tracksRefused = 0;          // new tracks refused: past maxNewTracksPerSample, or on a capped stroke
   long strokeCaps = 0;             // strokes whose cuts were ended for growing an object past their budget

@@ -727,6 +727,26 @@ TEST(CutterPropertySeeds, DiscDeepen22417SlideInOnAFreedPillowKeepsItManifold) {
   EXPECT_EQ(runDeepenSeed(shapes()[2], 22417), "");
 }
 
+// cube 2361, 2397, cylinder 4212, cube deepen 21222, cylinder deepen 23180
+// (LD_PROPERTY_SCALE=10): a cut-through left over a side face and its cut-out loop was
+// too thin to cap above the floor whatever the triangulation (0.0069-0.0111 mm): a path
+// vertex 0.008-0.011 mm off the rung 0.13-0.22 mm from its end, or two path vertices
+// 0.023-0.23 mm apart on a near-straight stretch. The cut-out now welds such a vertex
+// onto its neighbour on the loop (SurfaceMesh::collapseEdge) before capping.
+TEST(CutterPropertySeeds, Cube2361ThinCutOutLoopWeldsAVertexNextToTheRungEnd) {
+  EXPECT_EQ(runSeed(shapes()[1], 2361), "");
+}
+TEST(CutterPropertySeeds, Cube2397ThinCutOutLoopWeldsTwoCloseVertices) { EXPECT_EQ(runSeed(shapes()[1], 2397), ""); }
+TEST(CutterPropertySeeds, Cylinder4212ThinCutOutLoopWeldsAVertexNextToTheRungEnd) {
+  EXPECT_EQ(runSeed(shapes()[3], 4212), "");
+}
+TEST(CutterPropertySeeds, CubeDeepen21222ThinCutOutLoopWeldsTwoCloseVertices) {
+  EXPECT_EQ(runDeepenSeed(shapes()[1], 21222), "");
+}
+TEST(CutterPropertySeeds, CylinderDeepen23180ThinCutOutLoopWeldsTwoCloseVertices) {
+  EXPECT_EQ(runDeepenSeed(shapes()[3], 23180), "");
+}
+
 // The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
 enum class Runs { Moving, Still, StillAndMoving };
 
