@@ -196,8 +196,9 @@ TEST(SurfaceMesh, SplitEdgeOfATwoTrianglePillowIsRefused) {
 
 // collapseEdge merges an interior edge's ends when the result stays a manifold: an
 // octahedron's edge collapses into a triangular bipyramid (faces keep handles and
-// properties); a tetrahedron's edges, the bipyramid's equator (its ends share a third
-// neighbour) and a boundary edge are refused, the mesh unchanged.
+// properties); a tetrahedron's edges, the bipyramid's equator (its apexes have three
+// edges), a ring whose ends share a third neighbour (the link condition) and a boundary
+// edge are refused, the mesh unchanged.
 TEST(SurfaceMesh, CollapseEdgeKeepsAManifoldOrIsRefused) {
   SurfaceMesh m;
   const Vertex px = m.addVertex({1, 0, 0}), nx = m.addVertex({-1, 0, 0}), py = m.addVertex({0, 1, 0}),
@@ -247,6 +248,30 @@ TEST(SurfaceMesh, CollapseEdgeKeepsAManifoldOrIsRefused) {
   refusedEverywhere(m, {m.findEdge(py, nx), m.findEdge(nx, ny), m.findEdge(ny, py)});
   SurfaceMesh t = tetrahedron();
   refusedEverywhere(t, std::vector<Edge>(t.edges().begin(), t.edges().end()));
+  // A closed stack of three triangular rings between two apexes: the middle ring's ends
+  // share their third ring vertex (no face), every corner has more than three edges.
+  SurfaceMesh stack;
+  std::vector<std::array<Vertex, 3>> rings;
+  for (int r = 0; r < 3; ++r) {
+    rings.emplace_back();
+    for (int k = 0; k < 3; ++k)
+      rings.back()[static_cast<std::size_t>(k)] =
+          stack.addVertex({std::cos(2.0 * M_PI * k / 3.0), std::sin(2.0 * M_PI * k / 3.0), 1.0 - r});
+  }
+  const Vertex top = stack.addVertex({0, 0, 2}), bottom = stack.addVertex({0, 0, -2});
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::size_t k1 = (k + 1) % 3;
+    ASSERT_TRUE(stack.addFace(rings[0][k], rings[0][k1], top).isValid());
+    ASSERT_TRUE(stack.addFace(rings[2][k1], rings[2][k], bottom).isValid());
+    for (std::size_t r = 0; r < 2; ++r) {
+      const auto &up = rings[r], &low = rings[r + 1];
+      ASSERT_TRUE(stack.addFace(low[k], low[k1], up[k1]).isValid());
+      ASSERT_TRUE(stack.addFace(low[k], up[k1], up[k]).isValid());
+    }
+  }
+  ASSERT_TRUE(stack.isClosed());
+  EXPECT_VALID(stack);
+  refusedEverywhere(stack, {stack.findEdge(rings[1][0], rings[1][1]), stack.findEdge(rings[1][1], rings[1][2])});
   SurfaceMesh sq = square();
   refusedEverywhere(sq, std::vector<Edge>(sq.edges().begin(), sq.edges().end()));
 }
