@@ -2838,7 +2838,7 @@ struct CutEngine::Impl {
   void weldThinCap(Track& A, Track& B, std::vector<Vertex>& loop) {
     SurfaceMesh& m = meshOf(A.object);
     double q = loopQuality(m, loop);
-    while (q < sliverHeight() && loop.size() > 4) {
+    while (q < sliverHeight() && loop.size() > 3) {
       double bestQ = q;
       std::size_t bestI = 0, bestJ = 0;
       for (std::size_t i = 1; i + 1 < loop.size(); ++i) {

@@ -746,6 +746,11 @@ TEST(CutterPropertySeeds, CubeDeepen21222ThinCutOutLoopWeldsTwoCloseVertices) {
 TEST(CutterPropertySeeds, CylinderDeepen23180ThinCutOutLoopWeldsTwoCloseVertices) {
   EXPECT_EQ(runDeepenSeed(shapes()[3], 23180), "");
 }
+// cube deepen 21324 (LD_PROPERTY_SCALE=50): the same on a loop of four, 0.0125 mm; one
+// weld leaves a single triangle, 0.024 mm.
+TEST(CutterPropertySeeds, CubeDeepen21324FourVertexCutOutLoopWeldsToATriangle) {
+  EXPECT_EQ(runDeepenSeed(shapes()[1], 21324), "");
+}
 
 // The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
 enum class Runs { Moving, Still, StillAndMoving };
