@@ -2824,7 +2824,8 @@ struct CutEngine::Impl {
   }
 
   // How far (in snapping distances) a loop vertex may be welded onto its neighbour, and
-  // how far a face around it may turn doing so.
+  // how far a face around it may turn doing so (any way short of a flip within the
+  // snapping distance, as a snapped point would).
   static constexpr double kWeldReach = 5.0;
   static constexpr double kWeldTurnCos = 0.995;  // ~5.7°
 
@@ -2876,7 +2877,8 @@ struct CutEngine::Impl {
   }
 
   // Whether moving x onto y (collapsing their edge) keeps every other face around x
-  // turned by less than kWeldTurnCos and no thinner than it was or the sliver height.
+  // turned by less than kWeldTurnCos (unflipped within the snapping distance) and no
+  // thinner than it was or the sliver height.
   bool weldKeepsSurface(const SurfaceMesh& m, Vertex x, Vertex y) const {
     for (Face f : m.faces(x)) {
       if (m.localIndex(f, y) >= 0) continue;
@@ -2888,7 +2890,8 @@ struct CutEngine::Impl {
         after[k] = v == x ? m.position(y) : c[k];
       }
       const Vec3 n0 = (c[1] - c[0]).cross(c[2] - c[0]), n1 = (after[1] - after[0]).cross(after[2] - after[0]);
-      if (!(n0.dot(n1) >= kWeldTurnCos * n0.norm() * n1.norm())) return false;
+      const double turnCos = (m.position(x) - m.position(y)).norm() <= p.snapDistance ? 0.0 : kWeldTurnCos;
+      if (!(n0.dot(n1) > turnCos * n0.norm() * n1.norm())) return false;
       if (!(height(after[0], after[1], after[2]) >= std::min(sliverHeight(), height(c[0], c[1], c[2])))) return false;
     }
     return true;
