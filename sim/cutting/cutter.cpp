@@ -2163,12 +2163,30 @@ struct CutEngine::Impl {
           consider(false, Vertex(), q);
         }
       }
+      // On still tissue: the plane leaves the fan nowhere ahead but passes a corner ahead
+      // within the snapping distance (a stroke along an earlier cut's lip, grazing its next
+      // vertex): step onto that corner instead of losing the track (the curve's
+      // orientation stays to be set by a later step).
+      bool grazed = false;
+      if (!found && !movedSincePrev && closedObject(tr.object)) {
+        double off = p.snapDistance;
+        for (Face f : around)
+          for (Vertex x : m.vertices(f)) {
+            const Vec3 d = m.position(x) - pv;
+            const double dist = std::abs(n.dot(m.position(x) - origin)), dl = d.norm();
+            if (x == v || tr.visited.count(x) || dist > off || !(d.dot(heading) > 0.5 * dl)) continue;
+            off = dist;
+            best = Cand{true, x, Vertex(), Vertex(), m.position(x), 1.0, 0};
+            found = grazed = true;
+          }
+        if (grazed && dbg()) std::cerr << "walk: grazes " << best.q.transpose() << " off " << off << "\n";
+      }
       if (!found) {
         if (dbg()) std::cerr << "walk: no candidate at " << pv.transpose() << " step " << step << "\n";
         walkAtRim = !closedObject(tr.object) && m.isBoundary(v);
         return false;
       }
-      if (sgn == 0) sgn = best.sign;
+      if (sgn == 0 && !grazed) sgn = best.sign;
       heading = (best.q - pv).normalized();
       travelled += (best.q - pv).norm();
       if (travelled > maxLen) {

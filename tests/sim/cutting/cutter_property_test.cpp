@@ -978,6 +978,20 @@ TEST(CutterPropertySeeds, CylinderDeepen23115CrossingBackAlongItsCutWaits) {
   EXPECT_EQ(g_walkFailures, 0);
 }
 
+// A stroke along an earlier cut's lip (LD_PROPERTY_SCALE=10, still tissue): the sweep plane
+// grazes the lip's next vertex ahead (6e-5 to 0.03 mm off it) and leaves the tip's fan only
+// behind, so the walk found no candidate, a walk failure, and the track restarted ahead.
+// Now the walk takes that vertex. slab 1039 and 1100: grooves (one walk failure each);
+// slab 1485: a tunnel's bottom track (one; the piece now comes free). Now none.
+void expectSlabSeedWalksOn(unsigned seed) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[0], seed), "");
+  EXPECT_EQ(g_walkFailures, 0);
+}
+TEST(CutterPropertySeeds, Slab1039GrooveAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1039); }
+TEST(CutterPropertySeeds, Slab1100GrooveAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1100); }
+TEST(CutterPropertySeeds, Slab1485TunnelAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1485); }
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
