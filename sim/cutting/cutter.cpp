@@ -2044,16 +2044,21 @@ struct CutEngine::Impl {
   // between the two ways whole, when no triangle of the split is a sliver. (The front,
   // the partner's tip and the cut's starts still stop the walk: advance waits there, or
   // the cut joins its start.)
+  // On tissue that moved since the last sample the same holds for a vertex of a
+  // cut-through's front between the layers' tips (not the partner's tip): the motion
+  // moved the crossing beside the front (the cut-in path of a slide-in), and the first
+  // edge the walk crosses passes next to one of its vertices (moving seed 40563).
   bool hairpinSplit(const SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
     const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
     const Vertex x = (q - m.position(a)).norm() <= (q - m.position(b)).norm() ? a : b;
-    if (x != tr.prevTip && x != tr.prevTipCopy) return false;
+    const bool onFront = std::find(tr.chain.begin(), tr.chain.end(), x) != tr.chain.end();
+    const bool frontSplit = onFront && movedSincePrev && tr.partner >= 0;
+    if (x != tr.prevTip && x != tr.prevTipCopy && !frontSplit) return false;
     const Edge vx = m.findEdge(v, x);
     const auto kind = m.getFaceProperty<int>(kFaceKindProp);
-    if (tr.tunnel || !vx.isValid() || !kind || x == tr.first ||
-        std::find(tr.chain.begin(), tr.chain.end(), x) != tr.chain.end())
-      return false;
+    if (tr.tunnel || !vx.isValid() || !kind || x == tr.first || (onFront && !frontSplit)) return false;
     if (const Track* P = trackById(tr.partner); P && (x == P->tip || x == P->first)) return false;
+    if (frontSplit) return splitEdgeQuality(m, e, q) >= sliverHeight();
     bool opened = false;  // (v, x) is an edge of the opening: a wall face on one side
     for (int k = 0; k < 2; ++k)
       if (const Face g = m.face(vx, k); g.isValid() && kind[g] != kSurface) opened = true;

@@ -895,6 +895,16 @@ TEST(CutterPropertySeeds, MovingEntryGrazeOutsideThePairStartsNothing) {
   expectMovingSeedsFreed({40339u, 41148u, 41338u}, Runs::Moving, true);
 }
 
+// A stroke sliding in over the moving side x = 0 (seed 40563, LD_PROPERTY_SCALE=50): at
+// the sample after the pair started, the motion had slid the bottom layer's crossing
+// along the front, and the first edge its walk crossed passed 0.08 mm from a vertex of
+// that front (the cut-in path up the side), within the snapping tolerance. The vertex is
+// the cut's own, so the walk stopped, the track restarted as a groove and the pair was
+// lost. On moved tissue the walk now splits beside such a front vertex.
+TEST(CutterPropertySeeds, MovingEntryWalkPassingNextToTheFrontSplitsBesideIt) {
+  expectMovingSeedsFreed({40563u}, Runs::Moving, true);
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
