@@ -24,9 +24,9 @@ cmake -S . -B build-test -G Ninja -DCMAKE_BUILD_TYPE=Release -DLD_WERROR=ON "${l
 cmake --build build-test -j"$jobs"
 # -noreset: by default Xvfb resets when its last client leaves, and a GUI test that
 # connects during the reset fails to open the display (seen once in a fresh clone).
-# The cutting property test at scale 3: 1050 random and 360 deepening strokes, 96 on
+# The cutting property test at scale 10: 3500 random and 1200 deepening strokes, 320 on
 # moving tissue (scale 1, a plain ctest run, is 350 + 120 + 32).
-LD_PROPERTY_SCALE=${LD_PROPERTY_SCALE:-3} \
+LD_PROPERTY_SCALE=${LD_PROPERTY_SCALE:-10} \
   xvfb-run -a -s "-screen 0 1920x1080x24 -noreset" ctest --test-dir build-test --output-on-failure -j"$jobs" --timeout 600
 
 if [ "${LD_TEST_QUICK:-0}" = 1 ]; then
