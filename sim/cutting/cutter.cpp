@@ -2813,9 +2813,11 @@ struct CutEngine::Impl {
         if (walked && A.alive) {
           A.tip = start;
           done = close(A, B, path);
-        } else if (path.size() > 1 && !liftCutOut) {
+        } else if (path.size() > 1 && !liftCutOut && !movedSincePrev) {
           // Went part of the way: open what was inserted as an ordinary cut (not where
-          // the blade never was: a lifted hand's cut ends at its crossings).
+          // the blade never was: a lifted hand's cut ends at its crossings; nor on moved
+          // tissue, where a blade that met none at a glancing entry set off a walk along
+          // the top face ahead of it: moving seeds 40651, 41234).
           A.tip = start;
           for (std::size_t i = 1; i < path.size(); ++i) extend(A, path[i], A.tipDepth);
         }

@@ -905,6 +905,18 @@ TEST(CutterPropertySeeds, MovingEntryWalkPassingNextToTheFrontSplitsBesideIt) {
   expectMovingSeedsFreed({40563u}, Runs::Moving, true);
 }
 
+// Strokes entering at a glancing angle over a side the tissue moved away from (seeds
+// 40651, 41234, LD_PROPERTY_SCALE=50): at the sample after the pair started, the blade
+// met no tissue, so both layers lost it and cut out. The cut-out walk from one tip to the
+// other ran along the top face with the motion until it was too long (4-5 mm), and what
+// it had split was opened as a cut ahead of the blade; the stroke's later pair met that
+// slit, a walk failed and the piece stayed attached. On moved tissue a cut-out walk that
+// fails keeps nothing of its way (the tracks end at their crossings), and the blade's
+// next pair frees the piece.
+TEST(CutterPropertySeeds, MovingEntryCutOutWalkTooLongLeavesNoSlitAhead) {
+  expectMovingSeedsFreed({40651u, 41234u}, Runs::Moving, true);
+}
+
 // An L stroke whose corner lies just past a vertex the bottom layer's path snapped onto
 // (seed 40808: the path split the edge y = 9.33 at x = 12.11, then snapped onto (12, 9.33)):
 // the second leg turns back past that split within 0.03 mm. Its walk stopped there (the
