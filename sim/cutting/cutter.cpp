@@ -85,6 +85,10 @@ struct Hit {
   // A sheet's track ended on a slit between its tip and this crossing (advance): the way
   // back to that tip and the plane the walk followed, for the new track's start.
   Vec3 rimBack = Vec3::Zero(), rimNormal = Vec3::Zero();
+  // A track whose crossing slid back along it past its start ended (advance): the new
+  // track starts next to that start instead, so the stretch between is cut.
+  Face restartFace;
+  Vec3 restart = Vec3::Zero();
 };
 
 // Set of vertex handles without a heap node per element (open addressing, linear
@@ -2586,6 +2590,7 @@ struct CutEngine::Impl {
       }
       ++stats.walkFailures;
       tr.hasPending = false;
+      if (!movedSincePrev) backPastStart(tr, h);
       end(tr);
       h.used = false;  // a fresh track starts at the hit
       return;
@@ -2593,6 +2598,38 @@ struct CutEngine::Impl {
     tr.pending = h.point;
     tr.pendingDepth = h.depth;
     tr.hasPending = true;
+  }
+
+  // On still tissue: the walk's first step was blocked by the cut's own last edge (its
+  // far end or that end's copy), the crossing behind the tip past the matching radius and
+  // past the cut's start, along its line (a blade nearly in the face it crosses slides
+  // its crossing back along the cut faster than it moves; deepening seeds 20087, 20207).
+  // The track ends; the new one starts just past the old start, toward the crossing,
+  // instead of at the crossing (the stretch between used to stay uncut).
+  void backPastStart(const Track& tr, Hit& h) {
+    const SurfaceMesh& m = meshOf(tr.object);
+    auto at = [&](Vertex x) {
+      return x.isValid() && (m.vertex(walkBlockedAt, 0) == x || m.vertex(walkBlockedAt, 1) == x);
+    };
+    if (!m.isValid(walkBlockedAt) || !m.isValid(tr.first) || !(at(tr.prevTip) || at(tr.prevTipCopy))) return;
+    const Vec3 pf = m.position(tr.first), pt = m.position(tr.tip), r = h.point - pf;
+    if (!((pt - pf).norm() > 0.0)) return;
+    const Vec3 ax = (pt - pf).normalized();
+    const double along = r.dot(ax), lateral = (r - along * ax).norm();
+    const double gap = 4.0 * p.snapDistance;  // clear of the old start's snapping distance
+    if (!(along < 0.0) || lateral > -along || r.norm() <= 2.0 * gap) return;
+    const Vec3 q = pf + gap * r.normalized();
+    Face f;
+    for (Face g : m.faces(tr.first))
+      if (pointInFace(m, g, q)) f = g;
+    if (!f.isValid()) f = locate(m, h.face, q);
+    if (!f.isValid()) return;
+    for (Vertex x : m.vertices(f))
+      if (tr.visited.count(x) && (m.position(x) - q).norm() <= p.snapDistance) return;
+    if (dbg())
+      std::cerr << "advance: crossing back past the cut's start: the new track starts at " << q.transpose() << "\n";
+    h.restart = q;
+    h.restartFace = f;
   }
 
   // The blade left this layer: the temporary point becomes permanent and the cut ends.
@@ -3324,6 +3361,7 @@ struct CutEngine::Impl {
     t.startFace = h.face;
     t.startBack = h.rimBack;
     t.startNormal = h.rimNormal;
+
     t.tipDepth = h.depth;
     t.pending = h.point;
     t.pendingDepth = h.depth;
@@ -4298,8 +4336,17 @@ struct CutEngine::Impl {
       hits[i].used = true;
       if (!mayStart(hs, h.object, h.segment, 1)) continue;
       startSingle(hs, h);
-      hs.tracks.back().startMotion = motionOf(h.segment);
-      hs.tracks.back().startBlade = bladeOf(h.segment);
+      Track& t = hs.tracks.back();
+      t.startMotion = motionOf(h.segment);
+      t.startBlade = bladeOf(h.segment);
+      if (h.restartFace.isValid()) {  // a track's crossing went back past its start
+        t.start = h.restart;
+        t.startFace = h.restartFace;
+        t.startMotion = Vec3::Zero();
+        IntervalTimer timer{stats.remeshSeconds};
+        Hit to = h;
+        advance(t, to, bladeOf(h.segment));
+      }
     }
     capStrokeGrowth(hs);
     retireTracks(hs);

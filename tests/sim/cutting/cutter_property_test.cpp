@@ -57,12 +57,12 @@ struct Quality {
   }
 };
 Quality g_seen;
-long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = g_lipStops = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = 0;
 }
 
 std::string seenText() {
@@ -246,6 +246,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   }
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
+  g_trianglesCut += e.stats().trianglesCut;
   return {};
 }
 
@@ -999,6 +1000,19 @@ TEST(CutterPropertySeeds, CylinderDeepen23115CrossingBackAlongItsCutWaits) {
   EXPECT_EQ(runDeepenSeed(shapes()[3], 23115), "");
   EXPECT_EQ(g_walkFailures, 0);
 }
+
+// A diving blade's crossing sliding back along its groove past the groove's start
+// (LD_PROPERTY_SCALE=10, still tissue): the walk back stopped at the cut's own vertex and
+// the new track started at the crossing, 0.7 mm (slab deepen 20087) and 0.5 mm (disc
+// deepen 22166) past the start; the stretch between stayed uncut (40 and 26 triangles
+// cut). Now the new track starts next to the old start and cuts it (42 and 28).
+void expectDeepenSeedCuts(std::size_t shape, unsigned seed, long triangles) {
+  resetSeen();
+  EXPECT_EQ(runDeepenSeed(shapes()[shape], seed), "");
+  EXPECT_GE(g_trianglesCut, triangles);
+}
+TEST(CutterPropertySeeds, SlabDeepen20087CrossingBackPastItsStartCutsTheStretch) { expectDeepenSeedCuts(0, 20087, 42); }
+TEST(CutterPropertySeeds, DiscDeepen22166CrossingBackPastItsStartCutsTheStretch) { expectDeepenSeedCuts(2, 22166, 28); }
 
 // A stroke along an earlier cut's lip (LD_PROPERTY_SCALE=10, still tissue): the sweep plane
 // grazes the lip's next vertex ahead (6e-5 to 0.03 mm off it) and leaves the tip's fan only
