@@ -3361,7 +3361,6 @@ struct CutEngine::Impl {
     t.startFace = h.face;
     t.startBack = h.rimBack;
     t.startNormal = h.rimNormal;
-
     t.tipDepth = h.depth;
     t.pending = h.point;
     t.pendingDepth = h.depth;
