@@ -2889,6 +2889,9 @@ struct CutEngine::Impl {
   // how far a face around it may turn doing so (any way short of a flip within the
   // snapping distance, as a snapped point would).
   static constexpr double kWeldReach = 5.0;
+  // A cap under the floor (a quarter of the snapping distance) is worse than a slightly
+  // longer weld: cylinder strips with the blade nearly tangent need 5.1-5.6.
+  static constexpr double kWeldReachUnderFloor = 6.0;
   static constexpr double kWeldTurnCos = 0.995;  // ~5.7°
 
   // A cut-out loop too thin to cap without a sliver (no triangulation is, whatever
@@ -2904,13 +2907,13 @@ struct CutEngine::Impl {
     while (q < sliverHeight() && loop.size() > 3) {
       double bestQ = q;
       std::size_t bestI = 0, bestJ = 0;
+      const double reach = (q < 0.25 * p.snapDistance ? kWeldReachUnderFloor : kWeldReach) * p.snapDistance;
       for (std::size_t i = 1; i + 1 < loop.size(); ++i) {
         const Vertex x = loop[i];
         if (x == B.tip) continue;
         for (const std::size_t j : {i - 1, i + 1}) {
           const Vertex y = loop[j];
-          if (!((m.position(x) - m.position(y)).norm() <= kWeldReach * p.snapDistance) || !weldKeepsSurface(m, x, y))
-            continue;
+          if (!((m.position(x) - m.position(y)).norm() <= reach) || !weldKeepsSurface(m, x, y)) continue;
           std::vector<Vertex> rest = loop;
           rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
           if (const double qi = loopQuality(m, rest); qi > bestQ) {

@@ -759,6 +759,20 @@ TEST(CutterPropertySeeds, Cylinder5059CutOutLoopWeldsAcrossAFacetEdgeWithinTheSn
   EXPECT_EQ(runSeed(shapes()[3], 5059), "");
 }
 
+// cylinder 5612, 7011, cylinder deepen 23829 (LD_PROPERTY_SCALE=50): the blade nearly
+// tangent to the side, the cut-out loop a strip under the floor (0.0065, 0.0120,
+// 0.0081 mm); the weld that clears it is 0.255 / 0.278 / 0.257 mm, just over the reach of
+// 5 snapping distances. A cap under the floor may weld up to 6.
+TEST(CutterPropertySeeds, Cylinder5612CapUnderTheFloorWeldsALittleFarther) {
+  EXPECT_EQ(runSeed(shapes()[3], 5612), "");
+}
+TEST(CutterPropertySeeds, Cylinder7011CapUnderTheFloorWeldsALittleFarther) {
+  EXPECT_EQ(runSeed(shapes()[3], 7011), "");
+}
+TEST(CutterPropertySeeds, CylinderDeepen23829CapUnderTheFloorWeldsALittleFarther) {
+  EXPECT_EQ(runDeepenSeed(shapes()[3], 23829), "");
+}
+
 // The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
 enum class Runs { Moving, Still, StillAndMoving };
 
