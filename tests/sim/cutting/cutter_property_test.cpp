@@ -195,6 +195,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, s
   }
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
+  g_trianglesCut += e.stats().trianglesCut;
   if (objectsLeft) *objectsLeft = e.objects().size();
   return {};
 }
