@@ -2900,7 +2900,10 @@ struct CutEngine::Impl {
   // apart on a near-straight stretch. Such a vertex is welded onto its neighbour on the
   // loop (SurfaceMesh::collapseEdge), the best first, while that thickens the cap and
   // moves no face of the surface much (a flat side face: none) nor makes one thin. The
-  // tips and the rung's ends stay.
+  // tips and the rung's ends stay, unless the cap is under the floor (a quarter of the
+  // snapping distance): then the rung's end on the chain may go, a weld leaving every
+  // face around the vertex in its plane may be longer than the reach (a cylinder's side
+  // facet with the blade nearly tangent), and a slit's two sides may go onto its end.
   void weldThinCap(Track& A, Track& B, std::vector<Vertex>& loop) {
     SurfaceMesh& m = meshOf(A.object);
     double q = loopQuality(m, loop);
@@ -2908,12 +2911,18 @@ struct CutEngine::Impl {
       double bestQ = q;
       std::size_t bestI = 0, bestJ = 0;
       const double reach = (q < 0.25 * p.snapDistance ? kWeldReachUnderFloor : kWeldReach) * p.snapDistance;
-      for (std::size_t i = 1; i + 1 < loop.size(); ++i) {
+      // Under the floor the rung's end on the chain may go too, onto the chain's next
+      // vertex (the rung then ends there): B's tip a hair off the rung next to its end.
+      const std::size_t last = q < 0.25 * p.snapDistance ? loop.size() : loop.size() - 1;
+      for (std::size_t i = 1; i < last; ++i) {
         const Vertex x = loop[i];
         if (x == B.tip) continue;
         for (const std::size_t j : {i - 1, i + 1}) {
+          if (j == loop.size()) continue;
           const Vertex y = loop[j];
-          if (!((m.position(x) - m.position(y)).norm() <= reach) || !weldKeepsSurface(m, x, y)) continue;
+          const bool inReach = (m.position(x) - m.position(y)).norm() <= reach ||
+                               (q < 0.25 * p.snapDistance && weldStaysInPlane(m, x, y));
+          if (!inReach || !weldKeepsSurface(m, x, y)) continue;
           std::vector<Vertex> rest = loop;
           rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
           if (const double qi = loopQuality(m, rest); qi > bestQ) {
@@ -2923,22 +2932,72 @@ struct CutEngine::Impl {
           }
         }
       }
+      // An earlier cut's slit reaching into the cap (its two walls' crossings, one point,
+      // either side of its end on the loop) is a spike no single weld thickens: under the
+      // floor both sides may go onto the end at once.
+      bool spike = false;
+      if (q < 0.25 * p.snapDistance)
+        for (std::size_t i = 2; i + 2 < loop.size(); ++i) {
+          const Vertex t = loop[i], s0 = loop[i - 1], s1 = loop[i + 1];
+          if (!((m.position(s0) - m.position(s1)).norm() <= 1e-9 * p.snapDistance) || s0 == B.tip || s1 == B.tip)
+            continue;
+          bool ok = true;
+          for (const Vertex x : {s0, s1})
+            ok = ok && ((m.position(x) - m.position(t)).norm() <= reach || weldStaysInPlane(m, x, t)) &&
+                 weldKeepsSurface(m, x, t);
+          if (!ok) continue;
+          std::vector<Vertex> rest = loop;
+          rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i + 1));
+          rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i - 1));
+          if (const double qi = loopQuality(m, rest); qi > bestQ) {
+            bestQ = qi;
+            bestI = i;
+            spike = true;
+          }
+        }
       if (!(bestQ > q)) return;
-      const Vertex x = loop[bestI], y = loop[bestJ];
-      std::vector<Face> gone;
-      for (Face f : m.faces(x))
-        if (m.localIndex(f, y) >= 0) gone.push_back(f);
-      if (!m.collapseEdge(m.findEdge(x, y), y).isValid()) return;
-      if (dbg()) std::cerr << "weldThinCap " << x << " onto " << y << " cap " << q << " -> " << bestQ << "\n";
-      ++stats.capWelds;
-      bvhs[static_cast<std::size_t>(indexOf(A.object))].removeFaces(m, gone);
-      loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(bestI));
-      for (Track* t : {&A, &B}) std::erase(t->chain, x);
-      std::vector<Vertex> ring{y};
-      for (Edge e : m.edges(y)) ring.push_back(m.otherVertex(e, y));
-      touchEach(A.object, ring);
+      if (spike) {
+        const Vertex t = loop[bestI];
+        for (const std::size_t k : {bestI + 1, bestI - 1})
+          if (!weldLoopVertex(A, B, loop, k, t)) return;
+      } else if (!weldLoopVertex(A, B, loop, bestI, loop[bestJ])) {
+        return;
+      }
+      if (dbg()) std::cerr << "weldThinCap cap " << q << " -> " << bestQ << (spike ? " (spike)" : "") << "\n";
       q = loopQuality(m, loop);
     }
+  }
+
+  // Welds loop[i] onto y (their edge collapsed, y kept) and drops it from the loop and
+  // the tracks' chains. False (mesh unchanged) when the mesh refuses the collapse.
+  bool weldLoopVertex(Track& A, Track& B, std::vector<Vertex>& loop, std::size_t i, Vertex y) {
+    SurfaceMesh& m = meshOf(A.object);
+    const Vertex x = loop[i];
+    std::vector<Face> gone;
+    for (Face f : m.faces(x))
+      if (m.localIndex(f, y) >= 0) gone.push_back(f);
+    const double len = (m.position(x) - m.position(y)).norm();
+    if (!m.collapseEdge(m.findEdge(x, y), y).isValid()) return false;
+    if (dbg()) std::cerr << "weldThinCap " << x << " onto " << y << " (" << len << " mm)\n";
+    ++stats.capWelds;
+    bvhs[static_cast<std::size_t>(indexOf(A.object))].removeFaces(m, gone);
+    loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(i));
+    for (Track* t : {&A, &B}) std::erase(t->chain, x);
+    std::vector<Vertex> ring{y};
+    for (Edge e : m.edges(y)) ring.push_back(m.otherVertex(e, y));
+    touchEach(A.object, ring);
+    return true;
+  }
+
+  // Whether y lies in the plane of every face around x (a flat side face, or a crease
+  // that y is on): moving x there changes no face's plane, however far.
+  bool weldStaysInPlane(const SurfaceMesh& m, Vertex x, Vertex y) const {
+    for (Face f : m.faces(x)) {
+      const auto fv = m.vertices(f);
+      const Vec3 n = (m.position(fv[1]) - m.position(fv[0])).cross(m.position(fv[2]) - m.position(fv[0]));
+      if (!(std::abs(n.dot(m.position(y) - m.position(x))) <= 0.01 * p.snapDistance * n.norm())) return false;
+    }
+    return true;
   }
 
   // Whether moving x onto y (collapsing their edge) keeps every other face around x

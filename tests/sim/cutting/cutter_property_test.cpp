@@ -774,6 +774,31 @@ TEST(CutterPropertySeeds, CylinderDeepen23829CapUnderTheFloorWeldsALittleFarther
   EXPECT_EQ(runDeepenSeed(shapes()[3], 23829), "");
 }
 
+// LD_PROPERTY_SCALE=50, caps under the floor with the blade nearly tangent to the side.
+// Cylinder 4888: B's tip 0.0109 mm off the rung, 0.175 mm from the rung's end, which is
+// welded onto it (0.0109 -> 0.135 mm).
+TEST(CutterPropertySeeds, Cylinder4888CapUnderTheFloorWeldsTheRungsEndOntoTheTip) {
+  EXPECT_EQ(runSeed(shapes()[3], 4888), "");
+}
+// Cylinder 5126, 5161, 6309: the strip's path vertices lie on one side facet, the welds
+// that clear it 0.65-1.67 mm long but leaving every face in its plane (0.00034 -> 0.10,
+// 0.0063 -> 0.016, 0.0102 -> 0.019 mm).
+TEST(CutterPropertySeeds, Cylinder5126CapUnderTheFloorWeldsAlongAFlatSideFacet) {
+  EXPECT_EQ(runSeed(shapes()[3], 5126), "");
+}
+TEST(CutterPropertySeeds, Cylinder5161CapUnderTheFloorWeldsAlongAFlatSideFacet) {
+  EXPECT_EQ(runSeed(shapes()[3], 5161), "");
+}
+TEST(CutterPropertySeeds, Cylinder6309CapUnderTheFloorWeldsAlongAFlatSideFacet) {
+  EXPECT_EQ(runSeed(shapes()[3], 6309), "");
+}
+// Cylinder 6765: the loop runs into an earlier groove's end and back (a slit 0.024 mm
+// long, its two walls' crossings at one point); both are welded onto its end (0.0094 ->
+// 0.032 mm with two more welds).
+TEST(CutterPropertySeeds, Cylinder6765CapUnderTheFloorWeldsASlitOntoItsEnd) {
+  EXPECT_EQ(runSeed(shapes()[3], 6765), "");
+}
+
 // The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
 enum class Runs { Moving, Still, StillAndMoving };
 
