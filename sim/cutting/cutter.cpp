@@ -2008,10 +2008,9 @@ struct CutEngine::Impl {
   // this cut among `around`, v's faces), and the goal, within the matching radius, lies across that
   // cut's gap: beyond the plane of such a wall face at v, on a surface face with a
   // corner on such a wall (the far lip) that is not behind that plane.
-  bool acrossLip(const SurfaceMesh& m, const Track& tr, Vertex v, const std::vector<Face>& around,
-                 const WalkGoal& goal) const {
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
-    if (!kind || !m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
+  bool acrossLip(SurfaceMesh& m, const Track& tr, Vertex v, const std::vector<Face>& around, const WalkGoal& goal) {
+    const auto kind = kindsOf(m);  // (the walk asks at every step: no lookup by name)
+    if (!m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
     auto foreignWall = [&](Face f) {
       if (kind[f] == kSurface) return false;
       for (Vertex x : m.vertices(f))
