@@ -2328,6 +2328,12 @@ struct CutEngine::Impl {
     if (!m.isValid(h.face) || !kind || (h.point - m.position(tr.tip)).norm() > p.matchRadius) return false;
     return kind[h.face] != kSurface || (movedSincePrev && tr.partner >= 0 && !tr.tunnel && onLipBehind(m, tr, h.face));
   }
+  // f's corners on the cut (path vertices and their copies): two make a face along it.
+  static int cornersOnCut(const SurfaceMesh& m, const Track& tr, Face f) {
+    int onCut = 0;
+    for (Vertex x : m.vertices(f)) onCut += tr.visited.count(x) ? 1 : 0;
+    return onCut;
+  }
   // A lip of the cut behind its last edge: a surface face along the cut (two corners on
   // it) at the far end of that edge (either copy), not at the tip. (Only for an opened
   // cut-through: a groove's, or a tunnel's before it opens, lips curl up into the blade's
@@ -2336,14 +2342,12 @@ struct CutEngine::Impl {
   // point anywhere: a crossing back on the lip then read as ahead, and the walk to it,
   // stopped by the cut's own vertex, ended the track (moving seed 40236).
   static bool onLipBehind(const SurfaceMesh& m, const Track& tr, Face f) {
-    int onCut = 0;
     bool atPrev = false;
     for (Vertex x : m.vertices(f)) {
       if (x == tr.tip) return false;
       atPrev = atPrev || (x.isValid() && (x == tr.prevTip || x == tr.prevTipCopy));
-      onCut += tr.visited.count(x) ? 1 : 0;
     }
-    return atPrev && onCut >= 2;
+    return atPrev && cornersOnCut(m, tr, f) >= 2;
   }
   // On still tissue: the crossing has gone back along the cut, onto a face along it (two
   // corners on it), behind the tip. A blade nearly in the face it crosses slides its
@@ -2355,10 +2359,8 @@ struct CutEngine::Impl {
   // come ahead of its tip again.
   static bool onLipBackward(const SurfaceMesh& m, const Track& tr, const Hit& h) {
     if (!m.isValid(h.face) || !m.isValid(tr.prevTip)) return false;
-    int onCut = 0;
-    for (Vertex x : m.vertices(h.face)) onCut += tr.visited.count(x) ? 1 : 0;
     const Vec3 pt = m.position(tr.tip);
-    return onCut >= 2 && (h.point - pt).dot(pt - m.position(tr.prevTip)) < 0.0;
+    return cornersOnCut(m, tr, h.face) >= 2 && (h.point - pt).dot(pt - m.position(tr.prevTip)) < 0.0;
   }
   // No crossing for the track: the blade passes by its tip inside the opening.
   bool holdsWithout(const Track& tr, const instruments::Segment& s) const {
