@@ -10,6 +10,7 @@
 #include <limits>
 #include <numeric>
 #include <tuple>
+#include <variant>
 
 #include "sim/collision/bvh.h"
 #include "sim/collision/point_triangle.h"
@@ -84,11 +85,17 @@ struct Hit {
   bool used = false;
   // A sheet's track ended on a slit between its tip and this crossing (advance): the way
   // back to that tip and the plane the walk followed, for the new track's start.
-  Vec3 rimBack = Vec3::Zero(), rimNormal = Vec3::Zero();
+  struct PastSlit {
+    Vec3 back = Vec3::Zero(), normal = Vec3::Zero();
+  };
   // A track whose crossing slid back along it past its start ended (advance): the new
   // track starts next to that start instead, so the stretch between is cut.
-  Face restartFace;
-  Vec3 restart = Vec3::Zero();
+  struct PastStart {
+    Face face;
+    Vec3 point = Vec3::Zero();
+  };
+  // Set when a track ended on this crossing (advance, one track at most): where the new one starts.
+  std::variant<std::monostate, PastSlit, PastStart> restart;
 };
 
 // Set of vertex handles without a heap node per element (open addressing, linear
@@ -155,7 +162,7 @@ struct Track {
   Vec3 start = Vec3::Zero();
   Vec3 startDepth = Vec3::Zero();
   Vec3 startMotion = Vec3::Zero();  // the edge's motion when the track began
-  Vec3 startBack = Vec3::Zero(), startNormal = Vec3::Zero();  // Hit::rimBack, rimNormal
+  Hit::PastSlit startPastSlit;      // Hit::restart past a slit (else zero)
   Vec3 startBlade = Vec3::Zero();
   Face startFace;
   // The cut so far ends at `tip`. The front of the opening runs from tip through
@@ -2392,10 +2399,11 @@ struct CutEngine::Impl {
       Edge rim;
       Vec3 at;
       Vertex corner;
-      const bool slit = tr.startBack.norm() > 0.0;  // restarting past a slit: its walk's plane
+      const Hit::PastSlit& past = tr.startPastSlit;
+      const bool slit = past.back.norm() > 0.0;  // restarting past a slit: its walk's plane
       if (!v.isValid() && !n.isZero() && !closedObject(tr.object) &&
-          rimBehind(m, f, tr.start, slit ? tr.startNormal : n, slit ? tr.startBack : Vec3(-tr.startMotion),
-                    (slit ? tr.startBack : tr.startMotion).norm() + p.snapDistance, rim, at, corner)) {
+          rimBehind(m, f, tr.start, slit ? past.normal : n, slit ? past.back : Vec3(-tr.startMotion),
+                    (slit ? past.back : tr.startMotion).norm() + p.snapDistance, rim, at, corner)) {
         v = corner.isValid() ? corner : pointOnEdge(tr.object, rim, at);
       }
     }
@@ -2533,10 +2541,7 @@ struct CutEngine::Impl {
       tr.hasPending = false;
       end(tr);
       h.used = false;
-      if (walkAtRim) {
-        h.rimBack = from - h.point;
-        h.rimNormal = n;
-      }
+      if (walkAtRim) h.restart = Hit::PastSlit{from - h.point, n};
       return;
     }
     if (!ok && walkBlockedAt.isValid()) {
@@ -2629,8 +2634,7 @@ struct CutEngine::Impl {
       if (tr.visited.count(x) && (m.position(x) - q).norm() <= p.snapDistance) return;
     if (dbg())
       std::cerr << "advance: crossing back past the cut's start: the new track starts at " << q.transpose() << "\n";
-    h.restart = q;
-    h.restartFace = f;
+    h.restart = Hit::PastStart{f, q};
   }
 
   // The blade left this layer: the temporary point becomes permanent and the cut ends.
@@ -3422,8 +3426,7 @@ struct CutEngine::Impl {
     t.start = h.point;
     t.startDepth = h.depth;
     t.startFace = h.face;
-    t.startBack = h.rimBack;
-    t.startNormal = h.rimNormal;
+    if (const auto* slit = std::get_if<Hit::PastSlit>(&h.restart)) t.startPastSlit = *slit;
     t.tipDepth = h.depth;
     t.pending = h.point;
     t.pendingDepth = h.depth;
@@ -4401,9 +4404,10 @@ struct CutEngine::Impl {
       Track& t = hs.tracks.back();
       t.startMotion = motionOf(h.segment);
       t.startBlade = bladeOf(h.segment);
-      if (h.restartFace.isValid()) {  // a track's crossing went back past its start
-        t.start = h.restart;
-        t.startFace = h.restartFace;
+      const auto* past = std::get_if<Hit::PastStart>(&h.restart);
+      if (past && past->face.isValid()) {  // a track's crossing went back past its start
+        t.start = past->point;
+        t.startFace = past->face;
         t.startMotion = Vec3::Zero();
         IntervalTimer timer{stats.remeshSeconds};
         Hit to = h;
