@@ -1952,6 +1952,50 @@ struct CutEngine::Impl {
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
   bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
+
+  // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
+  // where it crosses the edge from a to b (ends on either side).
+  struct PlaneCut {
+    const SurfaceMesh& m;
+    Vec3 n, origin;
+    [[nodiscard]] double side(Vertex x) const { return n.dot(m.position(x) - origin); }
+    [[nodiscard]] Vec3 cross(Vertex a, Vertex b) const {
+      const double sa = side(a), sb = side(b);
+      return m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb));
+    }
+  };
+  // Follows the plane's curve over the faces, nothing edited (pastBlade, rimBehind): from
+  // the crossing q on edge e (ends strictly on either side), leaving face f, len along the
+  // curve so far, over at most maxSteps faces (then: atLimit). atCrossing(e, q, len) may
+  // end it at each crossing, entering(g, c, q, len) at the next face g (c: its corner off
+  // e), with their answer; where the curve's way on is lost: false.
+  template <class AtCrossing, class Entering>
+  static bool traceCurve(const PlaneCut& pc, Face f, Edge e, Vec3 q, double len, int maxSteps, bool atLimit,
+                         AtCrossing&& atCrossing, Entering&& entering) {
+    const SurfaceMesh& m = pc.m;
+    for (int i = 0;; ++i) {
+      if (const std::optional<bool> r = atCrossing(e, q, len)) return *r;
+      if (i == maxSteps) return atLimit;
+      const Face g = m.otherFace(e, f);
+      if (!g.isValid()) return false;
+      const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
+      Vertex c;
+      for (Vertex x : m.vertices(g))
+        if (x != a && x != b) c = x;
+      if (const std::optional<bool> r = entering(g, c, q, len)) return *r;
+      if (!c.isValid()) return false;
+      // It leaves g over (o, c), o the end of e across the plane from c.
+      const double sa = pc.side(a), sc = pc.side(c);
+      const Vertex o = (sa > 0) != (sc > 0) ? a : b;
+      if (pc.side(o) == sc) return false;
+      e = m.findEdge(o, c);
+      if (!e.isValid()) return false;
+      const Vec3 x = pc.cross(m.vertex(e, 0), m.vertex(e, 1));
+      len += (x - q).norm();
+      q = x;
+      f = g;
+    }
+  }
   // From v: would the sweep plane's curve (heading `forward` first) go past the blade's
   // end (`end`, the crossing's depth: the end of a groove's blade, the middle of a
   // tunnel's) by more than the snapping distance before it reaches the goal's face, or
@@ -1962,11 +2006,7 @@ struct CutEngine::Impl {
     const Vec3 into = end - goal.point;
     if (!(into.norm() > 0.0)) return false;
     const Vec3 u = into.normalized();
-    auto side = [&](Vertex x) { return n.dot(m.position(x) - pv); };
-    auto cross = [&](Vertex a, Vertex b) {
-      const double sa = side(a), sb = side(b);
-      return Vec3(m.position(a) + (m.position(b) - m.position(a)) * (sa / (sa - sb)));
-    };
+    const PlaneCut pc{m, n, pv};
     Face f;
     Edge e;
     Vec3 q = pv;
@@ -1975,9 +2015,9 @@ struct CutEngine::Impl {
       const auto& gv = m.vertices(g);
       const int k = m.localIndex(g, v);
       const Vertex a = gv[static_cast<std::size_t>((k + 1) % 3)], b = gv[static_cast<std::size_t>((k + 2) % 3)];
-      const double sa = side(a), sb = side(b);
+      const double sa = pc.side(a), sb = pc.side(b);
       if (sa == 0.0 || sb == 0.0 || (sa > 0) == (sb > 0)) continue;
-      const Vec3 x = cross(a, b);
+      const Vec3 x = pc.cross(a, b);
       if (!((x - pv).norm() > 0.0)) continue;
       const double score = (x - pv).normalized().dot(forward);
       if (score > best) {
@@ -1988,27 +2028,16 @@ struct CutEngine::Impl {
       }
     }
     if (!f.isValid() || !e.isValid()) return false;  // cannot tell: the walk goes on
-    double len = (q - pv).norm();
-    for (int i = 0; i < 1000; ++i) {
-      if ((q - end).dot(u) > p.snapDistance || len > maxLen) return true;
-      const Face g = m.otherFace(e, f);
-      if (!g.isValid() || pointInFace(m, g, goal.point)) return false;
-      const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
-      Vertex c;
-      for (Vertex x : m.vertices(g))
-        if (x != a && x != b) c = x;
-      if (!c.isValid()) return false;
-      const double sa = side(a), sc = side(c);
-      const Vertex o = (sa > 0) != (sc > 0) ? a : b;
-      if (side(o) == side(c)) return false;
-      const Vec3 x = cross(o, c);
-      len += (x - q).norm();
-      q = x;
-      e = m.findEdge(o, c);
-      f = g;
-      if (!e.isValid()) return false;
-    }
-    return true;
+    return traceCurve(
+        pc, f, e, q, (q - pv).norm(), 1000, true,
+        [&](Edge, const Vec3& x, double len) -> std::optional<bool> {
+          if ((x - end).dot(u) > p.snapDistance || len > maxLen) return true;
+          return std::nullopt;
+        },
+        [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
+          if (pointInFace(m, g, goal.point)) return false;
+          return std::nullopt;
+        });
   }
 
   // v is on the lip of an earlier cut (a surface face and a wall face with a corner off
@@ -3185,53 +3214,50 @@ struct CutEngine::Impl {
   // track before it reached.
   bool rimBehind(const SurfaceMesh& m, Face f, const Vec3& P, const Vec3& n, const Vec3& back, double maxLen, Edge& rim,
                  Vec3& at, Vertex& corner) const {
-    auto side = [&](Vertex x) { return n.dot(m.position(x) - P); };
+    const PlaneCut pc{m, n, P};
     const double eps = 1e-10 * scaleOf(P);
     corner = Vertex();
-    Edge from;  // the edge the trace came in over
-    Vec3 q = P;
-    double len = 0.0;
-    for (int i = 0; i < 64 && len <= maxLen; ++i) {
-      Edge exit;
-      Vec3 x = q;
-      double bestScore = 0.0;
-      for (Edge e : m.edges(f)) {
-        if (e == from) continue;
-        const double sa = side(m.vertex(e, 0)), sb = side(m.vertex(e, 1));
-        if (std::abs(sa) <= eps || std::abs(sb) <= eps || (sa > 0) == (sb > 0)) continue;  // a corner on it: below
-        const Vec3 c =
-            m.position(m.vertex(e, 0)) + (m.position(m.vertex(e, 1)) - m.position(m.vertex(e, 0))) * (sa / (sa - sb));
-        const double score = i == 0 ? (c - P).dot(back) : 1.0;
-        if (score > bestScore) {
-          bestScore = score;
-          exit = e;
-          x = c;
+    if (!(maxLen >= 0.0)) return false;  // (NaN as well)
+    // The plane through a corner of the rim (a slit's vertex the walk before it reached,
+    // or its copy), the curve at q in face g: start there.
+    auto atCorner = [&](Face g, const Vec3& q, double len) {
+      for (Vertex c : m.vertices(g))
+        if (std::abs(pc.side(c)) <= eps && m.isBoundary(c) && (m.position(c) - q).dot(back) > 0.0 &&
+            len + (m.position(c) - q).norm() <= maxLen) {
+          corner = c;
+          return true;
         }
+      return false;
+    };
+    Edge exit;  // where the curve leaves f going back from P
+    Vec3 x = P;
+    double bestScore = 0.0;
+    for (Edge e : m.edges(f)) {
+      const double sa = pc.side(m.vertex(e, 0)), sb = pc.side(m.vertex(e, 1));
+      if (std::abs(sa) <= eps || std::abs(sb) <= eps || (sa > 0) == (sb > 0)) continue;  // a corner on it: below
+      const Vec3 c = pc.cross(m.vertex(e, 0), m.vertex(e, 1));
+      const double score = (c - P).dot(back);
+      if (score > bestScore) {
+        bestScore = score;
+        exit = e;
+        x = c;
       }
-      if (!exit.isValid()) {
-        // The plane through a corner of the rim (a slit's vertex the walk before it
-        // reached, or its copy): start there.
-        for (Vertex c : m.vertices(f))
-          if (std::abs(side(c)) <= eps && m.isBoundary(c) && (m.position(c) - q).dot(back) > 0.0 &&
-              len + (m.position(c) - q).norm() <= maxLen) {
-            corner = c;
-            return true;
-          }
-        return false;
-      }
-      len += (x - q).norm();
-      q = x;
-      if (len > maxLen) return false;
-      if (m.isBoundary(exit)) {
-        rim = exit;
-        at = x;
-        return true;
-      }
-      f = m.otherFace(exit, f);
-      from = exit;
-      if (!f.isValid()) return false;
     }
-    return false;
+    if (!exit.isValid()) return atCorner(f, P, 0.0);
+    // On over at most 63 faces (64 crossings), to the rim.
+    return traceCurve(
+        pc, f, exit, x, (x - P).norm(), 63, false,
+        [&](Edge e, const Vec3& q, double len) -> std::optional<bool> {
+          if (len > maxLen) return false;
+          if (!m.isBoundary(e)) return std::nullopt;
+          rim = e;
+          at = q;
+          return true;
+        },
+        [&](Face g, Vertex c, const Vec3& q, double len) -> std::optional<bool> {
+          if (std::abs(pc.side(c)) <= eps) return atCorner(g, q, len);  // the curve's way out is a corner
+          return std::nullopt;
+        });
   }
 
   // The blade's edge at the last sample (prev) went in and out of the object next to
