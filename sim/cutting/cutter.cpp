@@ -1943,6 +1943,20 @@ struct CutEngine::Impl {
     Face face;               // the face holding point (advance: the hit's), if known
     bool stopAtLip = false;  // stop on an earlier cut's lip with point across its gap (acrossLip)
   };
+  // The first step of a walk (and of pastBlade's trace of where it would go) only has to
+  // avoid going back: its cosine to `forward` above this.
+  static constexpr double kFirstStepMinCos = -0.7;
+  // A face of v's fan, from v: v's corner index (-1: not a corner) and the corners after
+  // it, the edge where the plane leaves the fan.
+  struct FanEdge {
+    int k;
+    Vertex a, b;
+  };
+  static FanEdge fanEdge(const SurfaceMesh& m, Face f, Vertex v) {
+    const auto& fv = m.vertices(f);
+    const int k = m.localIndex(f, v);
+    return {k, fv[static_cast<std::size_t>((k + 1) % 3)], fv[static_cast<std::size_t>((k + 2) % 3)]};
+  }
 
   // A blade crossing another cut's slot or groove: the walk (advance) reaches the near
   // lip, the blade's point lies across the gap on the far lip, and walking on would
@@ -2010,11 +2024,9 @@ struct CutEngine::Impl {
     Face f;
     Edge e;
     Vec3 q = pv;
-    double best = -0.7;
+    double best = kFirstStepMinCos;
     for (Face g : m.faces(v)) {
-      const auto& gv = m.vertices(g);
-      const int k = m.localIndex(g, v);
-      const Vertex a = gv[static_cast<std::size_t>((k + 1) % 3)], b = gv[static_cast<std::size_t>((k + 2) % 3)];
+      const auto [k, a, b] = fanEdge(m, g, v);
       const double sa = pc.side(a), sb = pc.side(b);
       if (sa == 0.0 || sb == 0.0 || (sa > 0) == (sb > 0)) continue;
       const Vec3 x = pc.cross(a, b);
@@ -2167,11 +2179,10 @@ struct CutEngine::Impl {
       // Each corner's visited test once per face (own(f): all three are on the cut).
       const bool tipOnCut = tr.visited.count(v);
       for (Face f : around) {
-        const auto& fv = m.vertices(f);
-        const int k = m.localIndex(f, v);
-        const Vertex a = fv[static_cast<std::size_t>((k + 1) % 3)], b = fv[static_cast<std::size_t>((k + 2) % 3)];
+        const FanEdge fan = fanEdge(m, f, v);
+        const Vertex a = fan.a, b = fan.b;  // (named: the lambda below captures them)
         const bool onA = tr.visited.count(a), onB = tr.visited.count(b);
-        if (k >= 0 ? tipOnCut && onA && onB : own(f)) continue;
+        if (fan.k >= 0 ? tipOnCut && onA && onB : own(f)) continue;
         const double sa = n.dot(m.position(a) - origin), sb = n.dot(m.position(b) - origin);
         const bool za = std::abs(sa) <= eps, zb = std::abs(sb) <= eps;
         const bool atA = za && !onA, atB = zb && !onB;
@@ -2194,7 +2205,7 @@ struct CutEngine::Impl {
           // The first step only has to avoid going back (around an edge of the
           // object the curve may turn square to `forward`); later steps keep the
           // curve's orientation.
-          if (sgn == 0 ? score <= -0.7 : score <= 1e-9) return;
+          if (sgn == 0 ? score <= kFirstStepMinCos : score <= 1e-9) return;
           if (!found || score > best.score) {
             found = true;
             best = Cand{isV, vx, a, b, q, score, sign};
