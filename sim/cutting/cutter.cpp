@@ -2123,6 +2123,10 @@ struct CutEngine::Impl {
   // With `collect`, the new vertices are only inserted and listed (the cut does not
   // open along them yet).
   Edge walkBlockedAt;  // the edge whose crossing stopped the last walk next to the cut
+  // x is an end of walkBlockedAt (live in m: the caller checks).
+  bool blockedAtEnd(const SurfaceMesh& m, Vertex x) const {
+    return x.isValid() && (m.vertex(walkBlockedAt, 0) == x || m.vertex(walkBlockedAt, 1) == x);
+  }
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
     walkBlockedAt = Edge();
@@ -2591,11 +2595,9 @@ struct CutEngine::Impl {
       const SurfaceMesh& mb = meshOf(tr.object);
       // Likewise at the cut's own start (a pierce coming round to it): it joins there
       // when it ends (joinStart).
-      auto at = [&](Vertex x) {
-        return x.isValid() && (mb.vertex(walkBlockedAt, 0) == x || mb.vertex(walkBlockedAt, 1) == x);
-      };
       if (const Track* P = trackById(tr.partner);
-          P && P->tip.isValid() && mb.isValid(walkBlockedAt) && (at(P->tip) || at(tr.first) || at(P->first))) {
+          P && P->tip.isValid() && mb.isValid(walkBlockedAt) &&
+          (blockedAtEnd(mb, P->tip) || blockedAtEnd(mb, tr.first) || blockedAtEnd(mb, P->first))) {
         if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
         ++stats.holds;
         return;
@@ -2654,10 +2656,9 @@ struct CutEngine::Impl {
   // instead of at the crossing (the stretch between used to stay uncut).
   void backPastStart(const Track& tr, Hit& h) {
     const SurfaceMesh& m = meshOf(tr.object);
-    auto at = [&](Vertex x) {
-      return x.isValid() && (m.vertex(walkBlockedAt, 0) == x || m.vertex(walkBlockedAt, 1) == x);
-    };
-    if (!m.isValid(walkBlockedAt) || !m.isValid(tr.first) || !(at(tr.prevTip) || at(tr.prevTipCopy))) return;
+    if (!m.isValid(walkBlockedAt) || !m.isValid(tr.first) ||
+        !(blockedAtEnd(m, tr.prevTip) || blockedAtEnd(m, tr.prevTipCopy)))
+      return;
     const Vec3 pf = m.position(tr.first), pt = m.position(tr.tip), r = h.point - pf;
     if (!((pt - pf).norm() > 0.0)) return;
     const Vec3 ax = (pt - pf).normalized();
