@@ -2099,15 +2099,15 @@ struct CutEngine::Impl {
   // cut-through's front between the layers' tips (not the partner's tip): the motion
   // moved the crossing beside the front (the cut-in path of a slide-in), and the first
   // edge the walk crosses passes next to one of its vertices (moving seed 40563).
-  bool hairpinSplit(const SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
+  bool hairpinSplit(SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
     const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
     const Vertex x = (q - m.position(a)).norm() <= (q - m.position(b)).norm() ? a : b;
     const bool onFront = std::find(tr.chain.begin(), tr.chain.end(), x) != tr.chain.end();
     const bool frontSplit = onFront && movedSincePrev && tr.partner >= 0;
     if (x != tr.prevTip && x != tr.prevTipCopy && !frontSplit) return false;
     const Edge vx = m.findEdge(v, x);
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
-    if (tr.tunnel || !vx.isValid() || !kind || x == tr.first || (onFront && !frontSplit)) return false;
+    const auto kind = kindsOf(m);
+    if (tr.tunnel || !vx.isValid() || x == tr.first || (onFront && !frontSplit)) return false;
     if (const Track* P = trackById(tr.partner); P && (x == P->tip || x == P->first)) return false;
     if (frontSplit) return splitEdgeQuality(m, e, q) >= sliverHeight();
     bool opened = false;  // (v, x) is an edge of the opening: a wall face on one side
