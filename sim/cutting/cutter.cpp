@@ -2627,9 +2627,7 @@ struct CutEngine::Impl {
         const SurfaceMesh& md = meshOf(tr.object);
         int own = -1, kind = -1;
         if (md.isValid(h.face)) {
-          own = 1;
-          for (Vertex x : md.vertices(h.face))
-            if (!tr.visited.count(x)) own = 0;
+          own = cornersOnCut(md, tr, h.face) == 3 ? 1 : 0;
           kind = md.getFaceProperty<int>(kFaceKindProp)[h.face];
         }
         std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << " from "
