@@ -818,18 +818,27 @@ struct CutEngine::Impl {
   }
 
   // The face kind property, looked up once per edit instead of once per triangle.
-  // And kept for the rest of the call (run() forgets them): the same mesh at the same
-  // layout has the same property arrays (the engine adds properties, never removes one).
+  // And kept while the mesh's property set is the same (SurfaceMesh::propertySetVersion:
+  // views stay valid and name the same properties), across calls too: looked up again
+  // in each call, they were one lookup by name per slow sample.
   struct PropertyViews {
     const SurfaceMesh* mesh = nullptr;
-    std::uint64_t layout = 0;
+    std::uint64_t propertySet = 0;
     mesh::FaceProperty<int> kinds;
     mesh::VertexProperty<std::uint8_t> apex;
   };
-  PropertyViews views;
-  PropertyViews& viewsOf(SurfaceMesh& m) {
-    if (views.mesh != &m || views.layout != m.layoutVersion()) views = PropertyViews{&m, m.layoutVersion(), {}, {}};
+  mutable PropertyViews views;  // (a cache: const queries fill it too)
+  PropertyViews& viewsOf(const SurfaceMesh& m) const {
+    if (views.mesh != &m || views.propertySet != m.propertySetVersion())
+      views = PropertyViews{&m, m.propertySetVersion(), {}, {}};
     return views;
+  }
+  // The face kind property for a query (null when m has none), without the lookup by
+  // name once found: the walk's tests asked for it at every step.
+  mesh::FaceProperty<int> kindsIn(const SurfaceMesh& m) const {
+    PropertyViews& w = viewsOf(m);
+    if (!w.kinds) w.kinds = m.getFaceProperty<int>(kFaceKindProp);
+    return w.kinds;
   }
   mesh::FaceProperty<int> kindsOf(SurfaceMesh& m) {
     PropertyViews& w = viewsOf(m);
@@ -2056,9 +2065,10 @@ struct CutEngine::Impl {
   // this cut among `around`, v's faces), and the goal, within the matching radius, lies across that
   // cut's gap: beyond the plane of such a wall face at v, on a surface face with a
   // corner on such a wall (the far lip) that is not behind that plane.
-  bool acrossLip(SurfaceMesh& m, const Track& tr, Vertex v, const std::vector<Face>& around, const WalkGoal& goal) {
-    const auto kind = kindsOf(m);  // (the walk asks at every step: no lookup by name)
-    if (!m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
+  bool acrossLip(const SurfaceMesh& m, const Track& tr, Vertex v, const std::vector<Face>& around,
+                 const WalkGoal& goal) const {
+    const auto kind = kindsIn(m);
+    if (!kind || !m.isValid(goal.face) || kind[goal.face] != kSurface) return false;
     auto foreignWall = [&](Face f) {
       if (kind[f] == kSurface) return false;
       for (Vertex x : m.vertices(f))
@@ -2106,8 +2116,8 @@ struct CutEngine::Impl {
     const bool frontSplit = onFront && movedSincePrev && tr.partner >= 0;
     if (x != tr.prevTip && x != tr.prevTipCopy && !frontSplit) return false;
     const Edge vx = m.findEdge(v, x);
-    const auto kind = kindsOf(m);
-    if (tr.tunnel || !vx.isValid() || x == tr.first || (onFront && !frontSplit)) return false;
+    const auto kind = kindsIn(m);
+    if (tr.tunnel || !vx.isValid() || !kind || x == tr.first || (onFront && !frontSplit)) return false;
     if (const Track* P = trackById(tr.partner); P && (x == P->tip || x == P->first)) return false;
     if (frontSplit) return splitEdgeQuality(m, e, q) >= sliverHeight();
     bool opened = false;  // (v, x) is an edge of the opening: a wall face on one side
@@ -2375,7 +2385,7 @@ struct CutEngine::Impl {
     if (!tr.tip.isValid()) return false;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
     if (!movedSincePrev && onLipBackward(m, tr, h)) return true;
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const auto kind = kindsIn(m);
     if (!m.isValid(h.face) || !kind || (h.point - m.position(tr.tip)).norm() > p.matchRadius) return false;
     return kind[h.face] != kSurface || (movedSincePrev && tr.partner >= 0 && !tr.tunnel && onLipBehind(m, tr, h.face));
   }
@@ -2484,13 +2494,17 @@ struct CutEngine::Impl {
   bool onEarlierWall(const Track& tr) const {
     if (tr.partner < 0 || !tr.tip.isValid()) return false;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const auto kind = kindsIn(m);
     if (!kind || !m.isValid(tr.tip)) return false;
-    for (Face f : m.faces(tr.tip)) {
-      if (kind[f] == kSurface) continue;
-      for (Vertex x : m.vertices(f))
-        if (!tr.visited.count(x)) return true;
-    }
+    // Each face from both its sides at the tip, without building the face list (asked
+    // at every step of a cut-through's walk): the same answer.
+    for (Edge e : m.edges(tr.tip))
+      for (int s = 0; s < 2; ++s) {
+        const Face f = m.face(e, s);
+        if (!f.isValid() || kind[f] == kSurface) continue;
+        for (Vertex x : m.vertices(f))
+          if (!tr.visited.count(x)) return true;
+      }
     return false;
   }
 
@@ -2498,7 +2512,7 @@ struct CutEngine::Impl {
   // them lies along that wall (in the plane of a wall face at each tip).
   bool acrossWall(const Track& A, const Track& B) const {
     const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(A.object))].mesh;
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const auto kind = kindsIn(m);
     const Vec3 d = m.position(B.tip) - m.position(A.tip);
     if (!kind || !(d.norm() > 0.0) || d.norm() > 4.0 * p.matchRadius) return false;
     auto along = [&](const Track& T) {
@@ -2883,7 +2897,7 @@ struct CutEngine::Impl {
         // faces around the tip, would find no way to a tip this close).
         bool joined = false;
         if (const Edge eAB = m.findEdge(start, B.tip); eAB.isValid() && A.chain.size() >= 2) {
-          const auto kindAB = m.getFaceProperty<int>(kFaceKindProp);
+          const auto kindAB = kindsIn(m);
           joined = static_cast<bool>(kindAB);
           for (int k = 0; k < 2 && joined; ++k)
             if (const Face fk = m.face(eAB, k); !fk.isValid() || kindAB[fk] != kSurface) joined = false;
@@ -3500,7 +3514,7 @@ struct CutEngine::Impl {
     const int k = indexOf(h.object);
     if (k < 0) return kSurface;
     const SurfaceMesh& m = objects[static_cast<std::size_t>(k)].mesh;
-    const auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    const auto kind = kindsIn(m);
     return kind && m.isValid(h.face) ? kind[h.face] : kSurface;
   }
   // A crossing on a lip or wall of the cut this stroke has made: its face has a corner
@@ -4509,7 +4523,6 @@ struct CutEngine::Impl {
   StepResult run(F&& body) {
     StepResult r;
     res = &r;
-    views = PropertyViews{};  // looked up again in each call
     const Counts before = counts();
     const std::uint64_t v0 = versionSum();
     separationSeconds = 0.0;

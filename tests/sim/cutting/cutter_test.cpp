@@ -879,6 +879,35 @@ TEST(CutterGuards, AStrokeThatOutgrowsItsBudgetEndsItsCuts) {
   EXPECT_GT(e.stats().trianglesCut, cut);
 }
 
+// The engine keeps its view of the face kinds across calls while the mesh's property
+// set is the same. The caller replacing the mesh (here with a copy, the old arrays kept
+// alive elsewhere and overwritten) must not leave it reading the old arrays: the second
+// stroke, across the first groove's lips, cuts as in an engine whose old arrays stayed
+// as they were.
+TEST(Cutter, FaceKindsAreLookedUpAgainAfterTheMeshIsReplaced) {
+  auto run = [](bool spoilOld) {
+    CutEngine e;
+    const int id = e.addObject(slab());
+    test::stroke(e, Vec3(-1, 5.3, 1.0), Vec3(11, 5.3, 1.0), Vec3(0, 0, -1));
+    mesh::SurfaceMesh& m = e.meshToMove(id);
+    mesh::SurfaceMesh old = std::move(m);  // the same arrays
+    m = old;                               // a copy: new arrays, a new property set
+    e.verticesMoved(id);
+    if (spoilOld) {
+      auto kinds = old.getFaceProperty<int>(kFaceKindProp);
+      for (auto f : old.faces()) kinds[f] = kSideWall;
+    }
+    test::stroke(e, Vec3(5.1, -1, 1.2), Vec3(5.4, 11, 1.2), Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(false));
+    return e.objects()[0].mesh;
+  };
+  const mesh::SurfaceMesh a = run(false), b = run(true);
+  ASSERT_TRUE(b.validate().ok()) << b.validate().message();
+  ASSERT_EQ(a.nFaces(), b.nFaces());
+  ASSERT_EQ(a.verticesSize(), b.verticesSize());
+  for (auto v : a.vertices()) EXPECT_EQ(a.position(v), b.position(v));
+  EXPECT_EQ(facesOfKind(a, kSideWall), facesOfKind(b, kSideWall));
+}
+
 TEST(Cutter, RejectsBadInput) {
   CutParams bad;
   bad.snapDistance = -1.0;
