@@ -2109,7 +2109,7 @@ struct CutEngine::Impl {
   // cut-through's front between the layers' tips (not the partner's tip): the motion
   // moved the crossing beside the front (the cut-in path of a slide-in), and the first
   // edge the walk crosses passes next to one of its vertices (moving seed 40563).
-  bool hairpinSplit(SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
+  bool hairpinSplit(const SurfaceMesh& m, const Track& tr, Vertex v, Edge e, const Vec3& q) {
     const Vertex a = m.vertex(e, 0), b = m.vertex(e, 1);
     const Vertex x = (q - m.position(a)).norm() <= (q - m.position(b)).norm() ? a : b;
     const bool onFront = std::find(tr.chain.begin(), tr.chain.end(), x) != tr.chain.end();
