@@ -926,6 +926,49 @@ struct CutEngine::Impl {
     if (Track* P = trackById(tr.partner)) P->visited.insert(v);
   }
 
+  // Another track may have split an edge of this track's front since it was recorded
+  // (slab 4452: a terminating track's splits on the front edge down a side face). The
+  // vertices on that edge join the chain; else the front past them stays closed and the
+  // opening is not the loop the fill expects. Only where an edge of the chain is missing
+  // and a path of vertices on its segment joins its ends.
+  void refreshChain(Track& tr) {
+    SurfaceMesh& m = meshOf(tr.object);
+    std::vector<Vertex>& chain = tr.chain;
+    for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+      const Vertex a = chain[i], b = chain[i + 1];
+      if (m.findEdge(a, b).isValid()) continue;
+      const Vec3 pa = m.position(a), ab = m.position(b) - pa;
+      const double L2 = ab.squaredNorm();
+      if (!(L2 > 0.0)) return;
+      const double tol = 1e-9 * std::sqrt(L2);
+      std::vector<Vertex> between;
+      Vertex cur = a;
+      double tCur = 0.0;
+      while (cur != b && between.size() < 8) {
+        Vertex best;
+        double tBest = 2.0;
+        for (Edge e : m.edges(cur)) {
+          const Vertex x = m.otherVertex(e, cur);
+          const Vec3 d = m.position(x) - pa;
+          const double t = d.dot(ab) / L2;
+          if (t > tCur && t <= 1.0 && t < tBest && (d - t * ab).norm() <= tol) {
+            best = x;
+            tBest = t;
+          }
+        }
+        if (!best.isValid()) return;
+        cur = best;
+        tCur = tBest;
+        if (cur != b) between.push_back(cur);
+      }
+      if (cur != b) return;
+      if (dbg()) std::cerr << "refreshChain: " << between.size() << " vertices between " << a << " and " << b << "\n";
+      for (Vertex x : between) mark(tr, x);
+      chain.insert(chain.begin() + static_cast<std::ptrdiff_t>(i + 1), between.begin(), between.end());
+      i += between.size();
+    }
+  }
+
   // Extends the track's cut from its tip to N (an edge (tip, N) exists): the old tip
   // opens into two vertices (and so does the rest of a front chain that was not open
   // yet), and the opening is closed at once with wall triangles.
@@ -972,6 +1015,7 @@ struct CutEngine::Impl {
       advanceTo({v});
       return true;
     }
+    refreshChain(tr);
     // Read before advanceTo replaces it (only this track's chain changes here).
     const std::vector<Vertex>& chain = tr.chain;
     const std::size_t chainLen = chain.size();

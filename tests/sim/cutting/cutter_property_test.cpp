@@ -799,6 +799,15 @@ TEST(CutterPropertySeeds, Cylinder6765CapUnderTheFloorWeldsASlitOntoItsEnd) {
   EXPECT_EQ(runSeed(shapes()[3], 6765), "");
 }
 
+// Slab 4452 (LD_PROPERTY_SCALE=50): another track's end split the edge of a groove's
+// front down the slab's side (v55-v196) twice; the front, recorded before, still listed
+// that edge, so it stayed closed past v55 and the halves fill found a 6-vertex slit on
+// the bottom face instead of the opening (fanned: 0.0026 mm). The chain now takes the
+// vertices on its edge's segment (halves of 16, 0.093 mm).
+TEST(CutterPropertySeeds, Slab4452FrontSplitByAnotherTrackTakesTheNewVerticesIntoTheChain) {
+  EXPECT_EQ(runSeed(shapes()[0], 4452), "");
+}
+
 // The runs a frozen moving-tissue seed is checked in (still: no physics between samples).
 enum class Runs { Moving, Still, StillAndMoving };
 
