@@ -4308,6 +4308,43 @@ struct CutEngine::Impl {
     trackOfHit.assign(hits.size(), -1);
     for (std::size_t ti = 0; ti < matchOf.size(); ++ti)
       if (matchOf[ti] >= 0) trackOfHit[static_cast<std::size_t>(matchOf[ti])] = static_cast<int>(ti);
+    // On a side the motion pinched in, the blade's edge may meet the pinch's second lobe a
+    // sample after a pair started on the first: a new in and out just beyond one layer's
+    // crossing (away from its partner's). Started as a second pair, its inner track and
+    // the first pair's met and ended as the pinch was cut, and the outer ones went on as
+    // unpaired grooves (moving seeds 40419, 40772, 41251, 41364). The layer takes the far
+    // crossing; its walk cuts over the pinch.
+    struct PinchTake {
+      std::size_t track, own, nearHit;
+    };
+    std::vector<PinchTake> pinchTakes;
+    if (stepMoved && prevPose)
+      for (std::size_t ti = 0; ti < matchOf.size(); ++ti) {
+        const Track& t = hs.tracks[ti];
+        const Track* P = trackById(t.partner);
+        if (matchOf[ti] < 0 || !t.alive || t.tunnel || !P || !closedObject(t.object)) continue;
+        const std::size_t pi = static_cast<std::size_t>(P - hs.tracks.data());
+        if (pi >= matchOf.size() || matchOf[pi] < 0) continue;
+        const std::size_t k = static_cast<std::size_t>(matchOf[ti]), pk = static_cast<std::size_t>(matchOf[pi]);
+        if (pk + 1 != k && k + 1 != pk) continue;
+        const std::size_t nearHit = pk < k ? k + 1 : k - 1, farHit = pk < k ? k + 2 : k - 2;
+        if (nearHit >= hits.size() || farHit >= hits.size()) continue;  // k - 1, k - 2 wrap below 0
+        const Hit &hk = hits[k], &hn = hits[nearHit], &hf = hits[farHit];
+        auto fresh = [&](const Hit& x, std::size_t xi) {
+          return !x.used && trackOfHit[xi] < 0 && x.object == hk.object && x.segment == hk.segment &&
+                 kindOf(x) == kSurface && !onStrokeLip(hs, x);
+        };
+        if (!fresh(hn, nearHit) || !fresh(hf, farHit) || hn.dir != -hk.dir || hf.dir != hk.dir ||
+            (hn.point - hk.point).norm() >= p.matchRadius || (hf.point - hn.point).norm() < foldThickness() ||
+            clipsBulge(hk.dir > 0 ? hf : hn, hk.dir > 0 ? hn : hf, false))
+          continue;
+        if (dbg()) std::cerr << "track " << t.id << " takes the pinch's far crossing " << hf.point.transpose() << "\n";
+        hits[nearHit].used = hits[farHit].used = true;
+        trackOfHit[k] = -1;
+        trackOfHit[farHit] = static_cast<int>(ti);
+        matchOf[ti] = static_cast<int>(farHit);
+        pinchTakes.push_back({ti, k, nearHit});
+      }
     deepBuf.clear();
     for (std::size_t i = 0; i < hits.size(); ++i) {
       const Hit& h = hits[i];
@@ -4357,6 +4394,17 @@ struct CutEngine::Impl {
     for (std::size_t ti = 0; ti < nTracks; ++ti) {
       if (matchOf[ti] < 0 || !hs.tracks[ti].alive) continue;
       Track& t = hs.tracks[ti];
+      // A layer whose partner's walk failed this sample goes on as a groove: the far
+      // lobe's walk is no groove's (moving seed 40781 went round the slab); it takes its
+      // own crossing and the lobe starts its own cut, as before.
+      for (const PinchTake& pt : pinchTakes)
+        if (pt.track == ti && t.partner < 0) {
+          const std::size_t far = static_cast<std::size_t>(matchOf[ti]);
+          hits[pt.nearHit].used = hits[far].used = false;
+          trackOfHit[far] = -1;
+          trackOfHit[pt.own] = static_cast<int>(ti);
+          matchOf[ti] = static_cast<int>(pt.own);
+        }
       if (advanceFast(t, hits[static_cast<std::size_t>(matchOf[ti])])) {
         ++stats.fastSamples;
         continue;

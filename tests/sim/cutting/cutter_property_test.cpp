@@ -945,6 +945,16 @@ TEST(CutterPropertySeeds, MovingEntryGrazeOutsideThePairStartsNothing) {
   expectMovingSeedsFreed({40339u, 41148u, 41338u}, Runs::Moving, true);
 }
 
+// Strokes sliding in over a side the motion pinched in (seeds 40419, 40772, 41251, 41364,
+// LD_PROPERTY_SCALE=50): a pair started on one lobe of the pinch, and at the next sample
+// the blade's edge met the other lobe as a new in and out just beyond one layer's
+// crossing (0.2-0.7 mm), too far apart for a graze. It started a second pair; as the
+// pinch was cut the two inner tracks met and ended, the outer ones went on as unpaired
+// grooves and the piece stayed attached. The layer now takes the far crossing.
+TEST(CutterPropertySeeds, MovingEntryPinchSecondLobeALaterSampleStartsNoSecondPair) {
+  expectMovingSeedsFreed({40419u, 40772u, 41251u, 41364u}, Runs::Moving, true);
+}
+
 // A stroke sliding in over the moving side x = 0 (seed 40563, LD_PROPERTY_SCALE=50): at
 // the sample after the pair started, the motion had slid the bottom layer's crossing
 // along the front, and the first edge its walk crossed passed 0.08 mm from a vertex of
