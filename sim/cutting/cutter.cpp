@@ -10,6 +10,7 @@
 #include <limits>
 #include <numeric>
 #include <tuple>
+#include <utility>
 #include <variant>
 
 #include "sim/collision/bvh.h"
@@ -2019,6 +2020,10 @@ struct CutEngine::Impl {
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
   bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
+  // Set by advance for its walk of a groove on still, closed tissue (the blade's unit
+  // direction into the material), taken and cleared by that walk: it stops where the
+  // curve goes deeper than the blade reaches.
+  Vec3 walkReach = Vec3::Zero();
 
   // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
   // where it crosses the edge from a to b (ends on either side).
@@ -2190,6 +2195,10 @@ struct CutEngine::Impl {
     // not depend on the sampling rate.
     const Vec3 depthFrom = tr.hasPending ? tr.pending : origin;
     const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - depthFrom);
+    // (Taken once: no walk nested in this one's edits sees it.)
+    const Vec3 reach = std::exchange(walkReach, Vec3::Zero());
+    const double reachMax =
+        reach.isZero() ? 0.0 : std::max({depth0.dot(reach), depth1.dot(reach), tr.tipDepth.dot(reach)});
     int sgn = 0;
     double travelled = 0.0;
     Vec3 heading = forward;
@@ -2309,6 +2318,16 @@ struct CutEngine::Impl {
       const double s =
           span.squaredNorm() > 0 ? std::clamp((best.q - depthFrom).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
       const Vec3 depth = depth0 + s * (depth1 - depth0);
+      // The blade cuts no surface beyond its tip: a groove's curve going deeper than the
+      // blade has been since the tip (at the tip, the last sample, this one) has left it,
+      // down an earlier cut's wall or the wrong way round the object, cutting all the
+      // way (slab seeds 1207, 1446 ran along the slab's bottom until the walk was too
+      // long). It stops there as at an earlier cut's lip, before cutting that far.
+      if (!reach.isZero() && best.q.dot(reach) - reachMax > p.snapDistance) {
+        if (dbg()) std::cerr << "walk: past the blade's reach at " << best.q.transpose() << " step " << step << "\n";
+        walkAtLip = true;
+        return false;
+      }
       Vertex N;
       if (best.isVertex) {
         N = best.vx;
@@ -2630,6 +2649,8 @@ struct CutEngine::Impl {
       g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       walkAtLip = walkAtRim = false;
+      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object))
+        walkReach = h.dir * bladeDir;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok && (walkAtLip || walkAtRim)) {

@@ -1087,6 +1087,19 @@ TEST(CutterPropertySeeds, Slab1039GrooveAlongAnEarlierLipTakesTheGrazedVertex) {
 TEST(CutterPropertySeeds, Slab1100GrooveAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1100); }
 TEST(CutterPropertySeeds, Slab1485TunnelAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1485); }
 
+// A groove's walk that goes deeper than the blade reaches (down an earlier cut's wall,
+// or the wrong way round the object) stops there as at an earlier cut's lip. Before,
+// it cut on until it was too long and failed: slab 1207 went down a cut-out's wall and
+// along the slab's bottom; cylinder 4299 and 4652 down the side away from the blade.
+void expectSeedWalksOn(std::size_t shape, unsigned seed) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[shape], seed), "");
+  EXPECT_EQ(g_walkFailures, 0);
+}
+TEST(CutterPropertySeeds, Slab1207GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(0, 1207); }
+TEST(CutterPropertySeeds, Cylinder4299GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4299); }
+TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4652); }
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
