@@ -4348,8 +4348,8 @@ struct CutEngine::Impl {
         if (pi >= matchOf.size() || matchOf[pi] < 0) continue;
         const std::size_t k = static_cast<std::size_t>(matchOf[ti]), pk = static_cast<std::size_t>(matchOf[pi]);
         if (pk + 1 != k && k + 1 != pk) continue;
+        if (pk < k ? k + 2 >= hits.size() : k < 2) continue;  // no two hits beyond k
         const std::size_t nearHit = pk < k ? k + 1 : k - 1, farHit = pk < k ? k + 2 : k - 2;
-        if (nearHit >= hits.size() || farHit >= hits.size()) continue;  // k - 1, k - 2 wrap below 0
         const Hit &hk = hits[k], &hn = hits[nearHit], &hf = hits[farHit];
         auto fresh = [&](const Hit& x, std::size_t xi) {
           return !x.used && trackOfHit[xi] < 0 && x.object == hk.object && x.segment == hk.segment &&

@@ -1078,11 +1078,12 @@ TEST(CutterPropertySeeds, DiscDeepen22166CrossingBackPastItsStartCutsTheStretch)
 // behind, so the walk found no candidate, a walk failure, and the track restarted ahead.
 // Now the walk takes that vertex. slab 1039 and 1100: grooves (one walk failure each);
 // slab 1485: a tunnel's bottom track (one; the piece now comes free). Now none.
-void expectSlabSeedWalksOn(unsigned seed) {
+void expectSeedWalksOn(std::size_t shape, unsigned seed) {
   resetSeen();
-  EXPECT_EQ(runSeed(shapes()[0], seed), "");
+  EXPECT_EQ(runSeed(shapes()[shape], seed), "");
   EXPECT_EQ(g_walkFailures, 0);
 }
+void expectSlabSeedWalksOn(unsigned seed) { expectSeedWalksOn(0, seed); }
 TEST(CutterPropertySeeds, Slab1039GrooveAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1039); }
 TEST(CutterPropertySeeds, Slab1100GrooveAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1100); }
 TEST(CutterPropertySeeds, Slab1485TunnelAlongAnEarlierLipTakesTheGrazedVertex) { expectSlabSeedWalksOn(1485); }
@@ -1091,11 +1092,6 @@ TEST(CutterPropertySeeds, Slab1485TunnelAlongAnEarlierLipTakesTheGrazedVertex) {
 // or the wrong way round the object) stops there as at an earlier cut's lip. Before,
 // it cut on until it was too long and failed: slab 1207 went down a cut-out's wall and
 // along the slab's bottom; cylinder 4299 and 4652 down the side away from the blade.
-void expectSeedWalksOn(std::size_t shape, unsigned seed) {
-  resetSeen();
-  EXPECT_EQ(runSeed(shapes()[shape], seed), "");
-  EXPECT_EQ(g_walkFailures, 0);
-}
 TEST(CutterPropertySeeds, Slab1207GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(0, 1207); }
 TEST(CutterPropertySeeds, Cylinder4299GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4299); }
 TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4652); }
