@@ -10,7 +10,6 @@
 #include <limits>
 #include <numeric>
 #include <tuple>
-#include <utility>
 #include <variant>
 
 #include "sim/collision/bvh.h"
@@ -1996,6 +1995,9 @@ struct CutEngine::Impl {
     Vec3 point = Vec3::Zero();
     Face face;               // the face holding point (advance: the hit's), if known
     bool stopAtLip = false;  // stop on an earlier cut's lip with point across its gap (acrossLip)
+    // A groove's blade (unit, into the material; zero: none): stop where the curve goes
+    // deeper than the blade reaches.
+    Vec3 reach = Vec3::Zero();
   };
   // The first step of a walk (and of pastBlade's trace of where it would go) only has to
   // avoid going back: its cosine to `forward` above this.
@@ -2020,10 +2022,6 @@ struct CutEngine::Impl {
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
   bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
-  // Set by advance for its walk of a groove on still, closed tissue (the blade's unit
-  // direction into the material), taken and cleared by that walk: it stops where the
-  // curve goes deeper than the blade reaches.
-  Vec3 walkReach = Vec3::Zero();
 
   // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
   // where it crosses the edge from a to b (ends on either side).
@@ -2195,8 +2193,7 @@ struct CutEngine::Impl {
     // not depend on the sampling rate.
     const Vec3 depthFrom = tr.hasPending ? tr.pending : origin;
     const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - depthFrom);
-    // (Taken once: no walk nested in this one's edits sees it.)
-    const Vec3 reach = std::exchange(walkReach, Vec3::Zero());
+    const Vec3& reach = goal.reach;
     const double reachMax =
         reach.isZero() ? 0.0 : std::max({depth0.dot(reach), depth1.dot(reach), tr.tipDepth.dot(reach)});
     int sgn = 0;
@@ -2649,8 +2646,9 @@ struct CutEngine::Impl {
       g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       walkAtLip = walkAtRim = false;
+      // (Grooves on still, closed tissue.)
       if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object))
-        walkReach = h.dir * bladeDir;
+        g.reach = h.dir * bladeDir;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok && (walkAtLip || walkAtRim)) {
