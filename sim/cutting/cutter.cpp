@@ -1998,6 +1998,9 @@ struct CutEngine::Impl {
     // A groove's blade (unit, into the material; zero: none): stop where the curve goes
     // deeper than the blade reaches.
     Vec3 reach = Vec3::Zero();
+    // Where the plane leaves the tip's fan ahead in more than one place (an object's
+    // edge), take the way whose curve reaches the point (wayToGoal).
+    bool chooseWay = false;
   };
   // The first step of a walk (and of pastBlade's trace of where it would go) only has to
   // avoid going back: its cosine to `forward` above this.
@@ -2106,6 +2109,54 @@ struct CutEngine::Impl {
           if (pointInFace(m, g, goal.point)) return false;
           return std::nullopt;
         });
+  }
+
+  // A first step of a walk, where the plane leaves the tip's fan (face f) over edge (a, b).
+  struct Way {
+    Face f;
+    Vertex a, b;
+    Vec3 q;
+    double score;
+    int sign;
+  };
+  // Which of the walk's first steps `ways` (from the tip at pv; the first the walk's own
+  // pick) to take: -1 (its pick) unless the curve from its pick does not reach the
+  // goal's face within maxLen (without passing the blade's reach or crossing the cut's
+  // own edges) while another's does, traced over the faces with nothing edited (disc
+  // 3644: a blade near the bottom entering the rim, the walk went over the top and round).
+  int wayToGoal(const SurfaceMesh& m, const Track& tr, const Vec3& pv, std::span<Way> ways, const WalkGoal& goal,
+                const Vec3& n, double maxLen, double reachMax) {
+    for (std::size_t i = 1; i < ways.size(); ++i)  // by score, best first (a handful)
+      for (std::size_t j = i; j > 0 && ways[j].score > ways[j - 1].score; --j) std::swap(ways[j], ways[j - 1]);
+    // Two ways through one place (the coinciding walls of a closed slot, or a corner)
+    // are no choice the trace can make: the walk's own rules decide there.
+    for (std::size_t i = 0; i < ways.size(); ++i)
+      for (std::size_t j = i + 1; j < ways.size(); ++j)
+        if ((ways[i].q - ways[j].q).norm() <= p.snapDistance) return -1;
+    const PlaneCut pc{m, n, pv};
+    auto reaches = [&](const Way& w) {
+      const Edge e = m.findEdge(w.a, w.b);
+      if (!e.isValid()) return false;
+      return traceCurve(
+          pc, w.f, e, w.q, (w.q - pv).norm(), 1000, false,
+          [&](Edge x, const Vec3& q, double len) -> std::optional<bool> {
+            if (len > maxLen || (tr.visited.count(m.vertex(x, 0)) && tr.visited.count(m.vertex(x, 1)))) return false;
+            if (!goal.reach.isZero() && q.dot(goal.reach) - reachMax > p.snapDistance) return false;
+            return std::nullopt;
+          },
+          [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
+            if (pointInFace(m, g, goal.point)) return true;
+            return std::nullopt;
+          });
+    };
+    if (reaches(ways[0])) return -1;
+    for (std::size_t i = 1; i < ways.size(); ++i)
+      if (reaches(ways[i])) {
+        ++stats.waysChosen;
+        if (dbg()) std::cerr << "walk: takes the way through " << ways[i].q.transpose() << " to its goal\n";
+        return static_cast<int>(i);
+      }
+    return -1;
   }
 
   // v is on the lip of an earlier cut (a surface face and a wall face with a corner off
@@ -2239,6 +2290,12 @@ struct CutEngine::Impl {
         int sign = 1;
       } best;
       bool found = false;
+      // The first step's crossings ahead (chooseWay; a corner on the plane, or more than
+      // the array holds, leaves the choice to the score).
+      std::array<Way, 6> ways;
+      std::size_t nWays = 0;
+      bool noChoice = false;
+      const bool choosing = step == 0 && goal.chooseWay;
       const double eps = 1e-10 * scaleOf(pv);
       // Each corner's visited test once per face (own(f): all three are on the cut).
       const bool tipOnCut = tr.visited.count(v);
@@ -2270,6 +2327,12 @@ struct CutEngine::Impl {
           // object the curve may turn square to `forward`); later steps keep the
           // curve's orientation.
           if (sgn == 0 ? score <= kFirstStepMinCos : score <= 1e-9) return;
+          if (choosing) {
+            if (isV || nWays == ways.size())
+              noChoice = true;
+            else
+              ways[nWays++] = Way{f, a, b, q, score, sign};
+          }
           if (!found || score > best.score) {
             found = true;
             best = Cand{isV, vx, a, b, q, score, sign};
@@ -2282,6 +2345,11 @@ struct CutEngine::Impl {
           consider(false, Vertex(), q);
         }
       }
+      if (found && choosing && !noChoice && nWays >= 2)
+        if (const int k = wayToGoal(m, tr, pv, std::span(ways.data(), nWays), goal, n, maxLen, reachMax); k >= 0) {
+          const Way& w = ways[static_cast<std::size_t>(k)];
+          best = Cand{false, Vertex(), w.a, w.b, w.q, w.score, w.sign};
+        }
       // On still tissue: the plane leaves the fan nowhere ahead but passes a corner ahead
       // within the snapping distance (a stroke along an earlier cut's lip, grazing its next
       // vertex): step onto that corner instead of losing the track (the curve's
@@ -2647,8 +2715,10 @@ struct CutEngine::Impl {
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       walkAtLip = walkAtRim = false;
       // (Grooves on still, closed tissue.)
-      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object))
+      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object)) {
         g.reach = h.dir * bladeDir;
+        g.chooseWay = true;
+      }
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok && (walkAtLip || walkAtRim)) {

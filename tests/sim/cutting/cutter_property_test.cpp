@@ -57,19 +57,20 @@ struct Quality {
   }
 };
 Quality g_seen;
-long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = 0;
 }
 
 std::string seenText() {
   return "thinnest triangle height " + std::to_string(g_seen.height) + " mm, smallest area " +
          std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
-         ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops);
+         ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops) +
+         ", ways chosen " + std::to_string(g_ways);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
@@ -195,6 +196,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, s
   }
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
+  g_ways += e.stats().waysChosen;
   g_trianglesCut += e.stats().trianglesCut;
   if (objectsLeft) *objectsLeft = e.objects().size();
   return {};
@@ -247,6 +249,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   }
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
+  g_ways += e.stats().waysChosen;
   g_trianglesCut += e.stats().trianglesCut;
   return {};
 }
@@ -1091,10 +1094,28 @@ TEST(CutterPropertySeeds, Slab1485TunnelAlongAnEarlierLipTakesTheGrazedVertex) {
 // A groove's walk that goes deeper than the blade reaches (down an earlier cut's wall,
 // or the wrong way round the object) stops there as at an earlier cut's lip. Before,
 // it cut on until it was too long and failed: slab 1207 went down a cut-out's wall and
-// along the slab's bottom; cylinder 4299 and 4652 down the side away from the blade.
+// along the slab's bottom; cylinder 4299 and 4652 down the side away from the blade
+// (these two now take the other way from the tip, below; the stop stays their fallback).
 TEST(CutterPropertySeeds, Slab1207GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(0, 1207); }
 TEST(CutterPropertySeeds, Cylinder4299GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4299); }
 TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4652); }
+
+// Where the sweep plane leaves the groove tip's fan ahead in two places (at an object's
+// edge), the walk takes the way whose curve reaches the blade's crossing. Before, it took
+// the one nearest its heading: slab 1561 and cube 2000 failed on that way (one walk
+// failure each), cube 2405 and disc 3644 went past the blade's reach and stopped there
+// (one lip stop each; 3644 over the disc's top with the blade near its bottom).
+void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed) {
+  resetSeen();
+  EXPECT_EQ(runSeed(shapes()[shape], seed), "");
+  EXPECT_GE(g_ways, 1);
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_EQ(g_lipStops, 0);
+}
+TEST(CutterPropertySeeds, Slab1561GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(0, 1561); }
+TEST(CutterPropertySeeds, Cube2000GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(1, 2000); }
+TEST(CutterPropertySeeds, Cube2405GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(1, 2405); }
+TEST(CutterPropertySeeds, Disc3644GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(2, 3644); }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
