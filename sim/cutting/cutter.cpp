@@ -2714,11 +2714,10 @@ struct CutEngine::Impl {
       g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       walkAtLip = walkAtRim = false;
-      // (Grooves on still, closed tissue.)
-      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object)) {
+      // (Still, closed tissue: the reach for grooves, the choice of way for every track.)
+      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object))
         g.reach = h.dir * bladeDir;
-        g.chooseWay = true;
-      }
+      g.chooseWay = !movedSincePrev && closedObject(tr.object);
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok && (walkAtLip || walkAtRim)) {

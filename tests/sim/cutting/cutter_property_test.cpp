@@ -1100,22 +1100,32 @@ TEST(CutterPropertySeeds, Slab1207GrooveStopsWhereItsWalkGoesPastTheBlade) { exp
 TEST(CutterPropertySeeds, Cylinder4299GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4299); }
 TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4652); }
 
-// Where the sweep plane leaves the groove tip's fan ahead in two places (at an object's
-// edge), the walk takes the way whose curve reaches the blade's crossing. Before, it took
-// the one nearest its heading: slab 1561 and cube 2000 failed on that way (one walk
-// failure each), cube 2405 and disc 3644 went past the blade's reach and stopped there
-// (one lip stop each; 3644 over the disc's top with the blade near its bottom).
-void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed) {
+// Where the sweep plane leaves the tip's fan ahead in two places (at an object's edge),
+// the walk takes the way whose curve reaches the blade's crossing. Before, it took the
+// one nearest its heading: grooves on slab 1561 and cube 2000 failed on that way (one
+// walk failure each), cube 2405 and disc 3644 went past the blade's reach and stopped
+// there (one lip stop each; 3644 over the disc's top with the blade near its bottom);
+// cut-through layers on slab 1478 and cube 2224 went round the object until the walk was
+// too long, and their piece stayed on (1 and 2 walk failures, one object left).
+void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed, std::size_t objects = 1) {
   resetSeen();
-  EXPECT_EQ(runSeed(shapes()[shape], seed), "");
+  std::size_t left = 0;
+  EXPECT_EQ(runSeed(shapes()[shape], seed, 3, &left), "");
   EXPECT_GE(g_ways, 1);
   EXPECT_EQ(g_walkFailures, 0);
   EXPECT_EQ(g_lipStops, 0);
+  EXPECT_EQ(left, objects);
 }
 TEST(CutterPropertySeeds, Slab1561GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(0, 1561); }
 TEST(CutterPropertySeeds, Cube2000GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(1, 2000); }
 TEST(CutterPropertySeeds, Cube2405GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(1, 2405); }
 TEST(CutterPropertySeeds, Disc3644GrooveTakesTheWayThatReachesTheBlade) { expectSeedTakesTheWayToItsGoal(2, 3644); }
+TEST(CutterPropertySeeds, Slab1478CutThroughTakesTheWayThatFreesThePiece) {
+  expectSeedTakesTheWayToItsGoal(0, 1478, 2);
+}
+TEST(CutterPropertySeeds, Cube2224CutThroughTakesTheWayThatFreesThePiece) {
+  expectSeedTakesTheWayToItsGoal(1, 2224, 2);
+}
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
