@@ -2,6 +2,7 @@
 // valid after every sample. LD_PROPERTY_SCALE multiplies the number of strokes.
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
@@ -59,6 +60,15 @@ struct Quality {
 Quality g_seen;
 long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
+
+// LD_CUT_SEED_STATS=1: one line per seed on stderr (to compare runs stroke by stroke).
+void seedStats(unsigned seed, const CutEngine& e) {
+  static const bool on = std::getenv("LD_CUT_SEED_STATS") != nullptr;
+  if (!on) return;
+  const CutStats& st = e.stats();
+  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld cut %ld objects %zu\n", seed, st.walkFailures,
+               st.lipStops, st.waysChosen, st.trianglesCut, e.objects().size());
+}
 
 void resetSeen() {
   g_seen = Quality{};
@@ -197,6 +207,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, s
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
+  seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   if (objectsLeft) *objectsLeft = e.objects().size();
   return {};
@@ -250,6 +261,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
+  seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   return {};
 }
