@@ -2251,6 +2251,7 @@ struct CutEngine::Impl {
     double travelled = 0.0;
     Vec3 heading = forward;
     const int maxSteps = 100000;
+    std::array<Way, 6> ways;  // (step 0's, below)
     for (int step = 0; step < maxSteps; ++step) {
       SurfaceMesh& m = meshOf(tr.object);
       const Vertex v = tr.tip;
@@ -2292,7 +2293,6 @@ struct CutEngine::Impl {
       bool found = false;
       // The first step's crossings ahead (chooseWay; a corner on the plane, or more than
       // the array holds, leaves the choice to the score).
-      std::array<Way, 6> ways;
       std::size_t nWays = 0;
       bool noChoice = false;
       const bool choosing = step == 0 && goal.chooseWay;

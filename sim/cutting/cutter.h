@@ -132,7 +132,7 @@ struct CutStats {
   long separations = 0;
   long walkFailures = 0;           // a track could not follow the blade and was ended
   long lipStops = 0;               // tracks ended on an earlier cut's lip, the blade across its gap (restarted there)
-  long waysChosen = 0;             // walks that took another way from the tip than the one ahead: it reaches the blade
+  long waysChosen = 0;             // walks whose first step took another way: its curve reaches the blade
   long holds = 0;                  // track samples that waited: the blade was behind the moved tip
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)
