@@ -2111,6 +2111,15 @@ struct CutEngine::Impl {
         });
   }
 
+  // How deep a groove's blade has been since the tip, along its direction into the
+  // material (WalkGoal::reach; zero: no limit). A point past it by more than the
+  // snapping distance lies where the blade never went: the walk and its trace
+  // (wayToGoal) stop there alike.
+  struct Reach {
+    Vec3 dir = Vec3::Zero();
+    double max = 0.0;
+    [[nodiscard]] bool passedBy(const Vec3& q, double tol) const { return !dir.isZero() && q.dot(dir) - max > tol; }
+  };
   // A first step of a walk, where the plane leaves the tip's fan (face f) over edge (a, b).
   struct Way {
     Face f;
@@ -2125,7 +2134,7 @@ struct CutEngine::Impl {
   // own edges) while another's does, traced over the faces with nothing edited (disc
   // 3644: a blade near the bottom entering the rim, the walk went over the top and round).
   int wayToGoal(const SurfaceMesh& m, const Track& tr, const Vec3& pv, std::span<Way> ways, const WalkGoal& goal,
-                const Vec3& n, double maxLen, double reachMax) {
+                const Vec3& n, double maxLen, const Reach& reach) {
     for (std::size_t i = 1; i < ways.size(); ++i)  // by score, best first (a handful)
       for (std::size_t j = i; j > 0 && ways[j].score > ways[j - 1].score; --j) std::swap(ways[j], ways[j - 1]);
     // Two ways through one place (the coinciding walls of a closed slot, or a corner)
@@ -2141,7 +2150,7 @@ struct CutEngine::Impl {
           pc, w.f, e, w.q, (w.q - pv).norm(), 1000, false,
           [&](Edge x, const Vec3& q, double len) -> std::optional<bool> {
             if (len > maxLen || (tr.visited.count(m.vertex(x, 0)) && tr.visited.count(m.vertex(x, 1)))) return false;
-            if (!goal.reach.isZero() && q.dot(goal.reach) - reachMax > p.snapDistance) return false;
+            if (reach.passedBy(q, p.snapDistance)) return false;
             return std::nullopt;
           },
           [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
@@ -2244,9 +2253,8 @@ struct CutEngine::Impl {
     // not depend on the sampling rate.
     const Vec3 depthFrom = tr.hasPending ? tr.pending : origin;
     const Vec3 span = goal.toVertex ? Vec3::Zero() : Vec3(goal.point - depthFrom);
-    const Vec3& reach = goal.reach;
-    const double reachMax =
-        reach.isZero() ? 0.0 : std::max({depth0.dot(reach), depth1.dot(reach), tr.tipDepth.dot(reach)});
+    const Vec3& rd = goal.reach;
+    const Reach reach{rd, rd.isZero() ? 0.0 : std::max({depth0.dot(rd), depth1.dot(rd), tr.tipDepth.dot(rd)})};
     int sgn = 0;
     double travelled = 0.0;
     Vec3 heading = forward;
@@ -2346,7 +2354,7 @@ struct CutEngine::Impl {
         }
       }
       if (found && choosing && !noChoice && nWays >= 2)
-        if (const int k = wayToGoal(m, tr, pv, std::span(ways.data(), nWays), goal, n, maxLen, reachMax); k >= 0) {
+        if (const int k = wayToGoal(m, tr, pv, std::span(ways.data(), nWays), goal, n, maxLen, reach); k >= 0) {
           const Way& w = ways[static_cast<std::size_t>(k)];
           best = Cand{false, Vertex(), w.a, w.b, w.q, w.score, w.sign};
         }
@@ -2388,7 +2396,7 @@ struct CutEngine::Impl {
       // down an earlier cut's wall or the wrong way round the object, cutting all the
       // way (slab seeds 1207, 1446 ran along the slab's bottom until the walk was too
       // long). It stops there as at an earlier cut's lip, before cutting that far.
-      if (!reach.isZero() && best.q.dot(reach) - reachMax > p.snapDistance) {
+      if (reach.passedBy(best.q, p.snapDistance)) {
         if (dbg()) std::cerr << "walk: past the blade's reach at " << best.q.transpose() << " step " << step << "\n";
         walkAtLip = true;
         return false;
@@ -2715,9 +2723,9 @@ struct CutEngine::Impl {
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
       walkAtLip = walkAtRim = false;
       // (Still, closed tissue: the reach for grooves, the choice of way for every track.)
-      if (!movedSincePrev && tr.partner < 0 && !tr.tunnel && h.dir != 0 && closedObject(tr.object))
-        g.reach = h.dir * bladeDir;
-      g.chooseWay = !movedSincePrev && closedObject(tr.object);
+      const bool stillClosed = !movedSincePrev && closedObject(tr.object);
+      if (stillClosed && tr.partner < 0 && !tr.tunnel && h.dir != 0) g.reach = h.dir * bladeDir;
+      g.chooseWay = stillClosed;
       ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
     if (!ok && (walkAtLip || walkAtRim)) {
