@@ -2001,10 +2001,17 @@ struct CutEngine::Impl {
     // Where the plane leaves the tip's fan ahead in more than one place (an object's
     // edge), take the way whose curve reaches the point (wayToGoal).
     bool chooseWay = false;
+    // Edit nothing unless the first step's curve reaches the point's face within
+    // kMustReachSlack times the walk's length (traced as in wayToGoal): otherwise the
+    // walk fails at once (walkUnreached).
+    bool mustReach = false;
   };
   // The first step of a walk (and of pastBlade's trace of where it would go) only has to
   // avoid going back: its cosine to `forward` above this.
   static constexpr double kFirstStepMinCos = -0.7;
+  // WalkGoal::mustReach refuses a first step whose traced curve is longer than this many
+  // times the walk's length.
+  static constexpr double kMustReachSlack = 1.4;
   // A face of v's fan, from v: v's corner index (-1: not a corner) and the corners after
   // it, the edge where the plane leaves the fan.
   struct FanEdge {
@@ -2025,6 +2032,7 @@ struct CutEngine::Impl {
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
   bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
+  bool walkUnreached = false;  // the last walk's first step does not reach its goal (mustReach)
 
   // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
   // where it crosses the edge from a to b (ends on either side).
@@ -2128,6 +2136,30 @@ struct CutEngine::Impl {
     double score;
     int sign;
   };
+  // Does the plane's curve from the tip at pv, leaving its fan by way w, reach the goal's
+  // face within maxLen, without passing the blade's reach or crossing the cut's own edges?
+  // With `missed`: whether it does not for one of those reasons (not merely a curve lost
+  // where the trace cannot follow it, through a corner on the plane, which the walk can).
+  bool curveReaches(const SurfaceMesh& m, const Track& tr, const Vec3& pv, const Way& w, const WalkGoal& goal,
+                    const Vec3& n, double maxLen, const Reach& reach, bool* missed = nullptr) const {
+    if (missed) *missed = false;
+    const Edge e = m.findEdge(w.a, w.b);
+    if (!e.isValid()) return false;
+    return traceCurve(
+        PlaneCut{m, n, pv}, w.f, e, w.q, (w.q - pv).norm(), 1000, false,
+        [&](Edge x, const Vec3& q, double len) -> std::optional<bool> {
+          if (len > maxLen || (tr.visited.count(m.vertex(x, 0)) && tr.visited.count(m.vertex(x, 1))) ||
+              reach.passedBy(q, p.snapDistance)) {
+            if (missed) *missed = true;
+            return false;
+          }
+          return std::nullopt;
+        },
+        [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
+          if (pointInFace(m, g, goal.point)) return true;
+          return std::nullopt;
+        });
+  }
   // Which of the walk's first steps `ways` (from the tip at pv; the first the walk's own
   // pick) to take: -1 (its pick) unless the curve from its pick does not reach the
   // goal's face within maxLen (without passing the blade's reach or crossing the cut's
@@ -2142,22 +2174,7 @@ struct CutEngine::Impl {
     for (std::size_t i = 0; i < ways.size(); ++i)
       for (std::size_t j = i + 1; j < ways.size(); ++j)
         if ((ways[i].q - ways[j].q).norm() <= p.snapDistance) return -1;
-    const PlaneCut pc{m, n, pv};
-    auto reaches = [&](const Way& w) {
-      const Edge e = m.findEdge(w.a, w.b);
-      if (!e.isValid()) return false;
-      return traceCurve(
-          pc, w.f, e, w.q, (w.q - pv).norm(), 1000, false,
-          [&](Edge x, const Vec3& q, double len) -> std::optional<bool> {
-            if (len > maxLen || (tr.visited.count(m.vertex(x, 0)) && tr.visited.count(m.vertex(x, 1)))) return false;
-            if (reach.passedBy(q, p.snapDistance)) return false;
-            return std::nullopt;
-          },
-          [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
-            if (pointInFace(m, g, goal.point)) return true;
-            return std::nullopt;
-          });
-    };
+    auto reaches = [&](const Way& w) { return curveReaches(m, tr, pv, w, goal, n, maxLen, reach); };
     if (reaches(ways[0])) return -1;
     for (std::size_t i = 1; i < ways.size(); ++i)
       if (reaches(ways[i])) {
@@ -2247,6 +2264,7 @@ struct CutEngine::Impl {
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
     walkBlockedAt = Edge();
+    walkUnreached = false;
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
     // depth0 belongs to the last sampled point (the pending one, else the tip): the
     // depth at a crossing is interpolated between the two samples around it, so it does
@@ -2297,6 +2315,7 @@ struct CutEngine::Impl {
         Vec3 q;
         double score = -1e300;
         int sign = 1;
+        Face f;  // (a crossing's)
       } best;
       bool found = false;
       // The first step's crossings ahead (chooseWay; a corner on the plane, or more than
@@ -2343,7 +2362,7 @@ struct CutEngine::Impl {
           }
           if (!found || score > best.score) {
             found = true;
-            best = Cand{isV, vx, a, b, q, score, sign};
+            best = Cand{isV, vx, a, b, q, score, sign, f};
           }
         };
         if (atA) consider(true, a, m.position(a));
@@ -2356,8 +2375,21 @@ struct CutEngine::Impl {
       if (found && choosing && !noChoice && nWays >= 2)
         if (const int k = wayToGoal(m, tr, pv, std::span(ways.data(), nWays), goal, n, maxLen, reach); k >= 0) {
           const Way& w = ways[static_cast<std::size_t>(k)];
-          best = Cand{false, Vertex(), w.a, w.b, w.q, w.score, w.sign};
+          best = Cand{false, Vertex(), w.a, w.b, w.q, w.score, w.sign, w.f};
         }
+      // The trace only follows the plane: the walk snaps onto corners near it and stops
+      // where the goal lies in any face around its tip, so it may arrive sooner (slab 4449:
+      // the walk arrived within its length, the trace after 1.3-1.4 times that). Only a
+      // curve clearly too long, or crossing the cut itself, fails here.
+      bool missed = false;
+      if (found && step == 0 && goal.mustReach && !best.isVertex &&
+          !curveReaches(m, tr, pv, Way{best.f, best.a, best.b, best.q, best.score, best.sign}, goal, n,
+                        kMustReachSlack * maxLen, reach, &missed) &&
+          missed) {
+        if (dbg()) std::cerr << "walk: its curve does not reach the goal from " << pv.transpose() << "\n";
+        walkUnreached = true;
+        return false;
+      }
       // On still tissue: the plane leaves the fan nowhere ahead but passes a corner ahead
       // within the snapping distance (a stroke along an earlier cut's lip, grazing its next
       // vertex): step onto that corner instead of losing the track (the curve's
@@ -2371,7 +2403,7 @@ struct CutEngine::Impl {
             const double dist = std::abs(n.dot(m.position(x) - origin)), dl = d.norm();
             if (x == v || tr.visited.count(x) || dist > off || !(d.dot(heading) > 0.5 * dl)) continue;
             off = dist;
-            best = Cand{true, x, Vertex(), Vertex(), m.position(x), 1.0, 0};
+            best = Cand{true, x, Vertex(), Vertex(), m.position(x), 1.0, 0, Face()};
             found = grazed = true;
           }
         if (grazed && dbg()) std::cerr << "walk: grazes " << best.q.transpose() << " off " << off << "\n";
@@ -3496,6 +3528,11 @@ struct CutEngine::Impl {
       const Vec3 n2 = sweepNormal(from, h0.point, motion, n);
       WalkGoal g;
       g.point = h0.point;
+      // Where the blade came in over no edge behind it (its point came out of a side ahead
+      // of a groove, the blade moving toward that side: slab 1051, cube 2451), the way
+      // back goes round the object and is too long; it left its splits on the way.
+      // Traced first, such a start edits nothing there and is a pierce.
+      g.mustReach = true;
       std::vector<Vertex> path;
       // The first step goes back against the motion (around the edge the blade came
       // over) and toward the other crossing: when the blade is tilted back, the lower
@@ -3526,7 +3563,7 @@ struct CutEngine::Impl {
         a.visited.forEach([&](Vertex x) { b.visited.insert(x); });
         return;
       }
-      ++stats.walkFailures;
+      ++(walkUnreached ? stats.pairsPierced : stats.walkFailures);
       // Could not join the layers around the edge (e.g. a side the tissue's motion made
       // wavy): the path found is not the cut's (opening along it made long wrong cuts),
       // so nothing opens there; the two crossings go on as a pierce through both layers.

@@ -58,7 +58,7 @@ struct Quality {
   }
 };
 Quality g_seen;
-long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 // LD_CUT_SEED_STATS=1: one line per seed on stderr (to compare runs stroke by stroke).
@@ -66,13 +66,13 @@ void seedStats(unsigned seed, const CutEngine& e) {
   static const bool on = std::getenv("LD_CUT_SEED_STATS") != nullptr;
   if (!on) return;
   const CutStats& st = e.stats();
-  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld cut %ld objects %zu\n", seed, st.walkFailures,
-               st.lipStops, st.waysChosen, st.trianglesCut, e.objects().size());
+  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld cut %ld objects %zu\n", seed,
+               st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.trianglesCut, e.objects().size());
 }
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = 0;
 }
 
 std::string seenText() {
@@ -80,7 +80,7 @@ std::string seenText() {
          std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
          ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops) +
-         ", ways chosen " + std::to_string(g_ways);
+         ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " + std::to_string(g_pierced);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
@@ -207,6 +207,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, s
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
+  g_pierced += e.stats().pairsPierced;
   seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   if (objectsLeft) *objectsLeft = e.objects().size();
@@ -261,6 +262,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   g_walkFailures += e.stats().walkFailures;
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
+  g_pierced += e.stats().pairsPierced;
   seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   return {};
@@ -1119,10 +1121,15 @@ TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) {
 // there (one lip stop each; 3644 over the disc's top with the blade near its bottom);
 // cut-through layers on slab 1478 and cube 2224 went round the object until the walk was
 // too long, and their piece stayed on (1 and 2 walk failures, one object left).
-void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed, std::size_t objects = 1) {
+// Runs one frozen seed with the counts reset: the objects left.
+std::size_t runFrozenSeed(std::size_t shape, unsigned seed) {
   resetSeen();
   std::size_t left = 0;
   EXPECT_EQ(runSeed(shapes()[shape], seed, 3, &left), "");
+  return left;
+}
+void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed, std::size_t objects = 1) {
+  const std::size_t left = runFrozenSeed(shape, seed);
   EXPECT_GE(g_ways, 1);
   EXPECT_EQ(g_walkFailures, 0);
   EXPECT_EQ(g_lipStops, 0);
@@ -1138,6 +1145,22 @@ TEST(CutterPropertySeeds, Slab1478CutThroughTakesTheWayThatFreesThePiece) {
 TEST(CutterPropertySeeds, Cube2224CutThroughTakesTheWayThatFreesThePiece) {
   expectSeedTakesTheWayToItsGoal(1, 2224, 2);
 }
+
+// A blade whose point comes out of a side ahead of its groove, moving toward that side,
+// starts a pair with no edge behind it: the walk back round the edge went round the
+// object until it was too long (a walk failure each, its splits left on the way), and
+// the crossings went on as a pierce. The way is traced first now, and the start is a
+// pierce without the walk.
+void expectSeedPiercesWithoutTheWalkRound(std::size_t shape, unsigned seed, std::size_t objects = 1) {
+  const std::size_t left = runFrozenSeed(shape, seed);
+  EXPECT_GE(g_pierced, 1);
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_EQ(left, objects);
+}
+TEST(CutterPropertySeeds, Slab1051PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(0, 1051); }
+TEST(CutterPropertySeeds, Slab1529PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(0, 1529, 2); }
+TEST(CutterPropertySeeds, Cube2451PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(1, 2451); }
+TEST(CutterPropertySeeds, Disc3523PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(2, 3523); }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
