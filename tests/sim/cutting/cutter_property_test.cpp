@@ -1114,13 +1114,6 @@ TEST(CutterPropertySeeds, Slab1207GrooveStopsWhereItsWalkGoesPastTheBlade) { exp
 TEST(CutterPropertySeeds, Cylinder4299GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4299); }
 TEST(CutterPropertySeeds, Cylinder4652GrooveStopsWhereItsWalkGoesPastTheBlade) { expectSeedWalksOn(3, 4652); }
 
-// Where the sweep plane leaves the tip's fan ahead in two places (at an object's edge),
-// the walk takes the way whose curve reaches the blade's crossing. Before, it took the
-// one nearest its heading: grooves on slab 1561 and cube 2000 failed on that way (one
-// walk failure each), cube 2405 and disc 3644 went past the blade's reach and stopped
-// there (one lip stop each; 3644 over the disc's top with the blade near its bottom);
-// cut-through layers on slab 1478 and cube 2224 went round the object until the walk was
-// too long, and their piece stayed on (1 and 2 walk failures, one object left).
 // Runs one frozen seed with the counts reset: the objects left.
 std::size_t runFrozenSeed(std::size_t shape, unsigned seed) {
   resetSeen();
@@ -1128,6 +1121,14 @@ std::size_t runFrozenSeed(std::size_t shape, unsigned seed) {
   EXPECT_EQ(runSeed(shapes()[shape], seed, 3, &left), "");
   return left;
 }
+
+// Where the sweep plane leaves the tip's fan ahead in two places (at an object's edge),
+// the walk takes the way whose curve reaches the blade's crossing. Before, it took the
+// one nearest its heading: grooves on slab 1561 and cube 2000 failed on that way (one
+// walk failure each), cube 2405 and disc 3644 went past the blade's reach and stopped
+// there (one lip stop each; 3644 over the disc's top with the blade near its bottom);
+// cut-through layers on slab 1478 and cube 2224 went round the object until the walk was
+// too long, and their piece stayed on (1 and 2 walk failures, one object left).
 void expectSeedTakesTheWayToItsGoal(std::size_t shape, unsigned seed, std::size_t objects = 1) {
   const std::size_t left = runFrozenSeed(shape, seed);
   EXPECT_GE(g_ways, 1);
