@@ -2001,9 +2001,9 @@ struct CutEngine::Impl {
     // Where the plane leaves the tip's fan ahead in more than one place (an object's
     // edge), take the way whose curve reaches the point (wayToGoal).
     bool chooseWay = false;
-    // Edit nothing unless the first step's curve reaches the point's face within
-    // kMustReachSlack times the walk's length (traced as in wayToGoal): otherwise the
-    // walk fails at once (walkUnreached).
+    // Edit nothing unless the first step's curve reaches the point's face (the goal
+    // vertex's) within kMustReachSlack times the walk's length (traced as in wayToGoal):
+    // otherwise the walk fails at once (walkUnreached).
     bool mustReach = false;
   };
   // The first step of a walk (and of pastBlade's trace of where it would go) only has to
@@ -2033,6 +2033,7 @@ struct CutEngine::Impl {
   bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
   bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
   bool walkUnreached = false;  // the last walk's first step does not reach its goal (mustReach)
+  bool walkTooLong = false;    // the last walk ran over its length
 
   // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
   // where it crosses the edge from a to b (ends on either side).
@@ -2137,7 +2138,8 @@ struct CutEngine::Impl {
     int sign;
   };
   // Does the plane's curve from the tip at pv, leaving its fan by way w, reach the goal's
-  // face within maxLen, without passing the blade's reach or crossing the cut's own edges?
+  // face (a face with the goal vertex) within maxLen, without passing the blade's reach or
+  // crossing the cut's own edges?
   // With `missed`: whether it does not for one of those reasons (not merely a curve lost
   // where the trace cannot follow it, through a corner on the plane, which the walk can).
   bool curveReaches(const SurfaceMesh& m, const Track& tr, const Vec3& pv, const Way& w, const WalkGoal& goal,
@@ -2156,7 +2158,7 @@ struct CutEngine::Impl {
           return std::nullopt;
         },
         [&](Face g, Vertex, const Vec3&, double) -> std::optional<bool> {
-          if (pointInFace(m, g, goal.point)) return true;
+          if (goal.toVertex ? m.localIndex(g, goal.vertex) >= 0 : pointInFace(m, g, goal.point)) return true;
           return std::nullopt;
         });
   }
@@ -2264,7 +2266,7 @@ struct CutEngine::Impl {
   bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
             const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
     walkBlockedAt = Edge();
-    walkUnreached = false;
+    walkUnreached = walkTooLong = false;
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
     // depth0 belongs to the last sampled point (the pending one, else the tip): the
     // depth at a crossing is interpolated between the two samples around it, so it does
@@ -2418,6 +2420,7 @@ struct CutEngine::Impl {
       travelled += (best.q - pv).norm();
       if (travelled > maxLen) {
         if (dbg()) std::cerr << "walk: too long at " << pv.transpose() << "\n";
+        walkTooLong = true;
         return false;
       }
       const double s =
@@ -3055,6 +3058,9 @@ struct CutEngine::Impl {
         WalkGoal g;
         g.toVertex = true;
         g.vertex = B.tip;
+        // Traced first: where the curve reaches B's tip only round the object, nothing is
+        // inserted, nor opened as the partial cut below (slab 1115, 1464, cylinder 4472).
+        g.mustReach = true;
         const double maxLen = 3.0 * ((pb - pa).norm() + motion.norm()) + 2.0 * p.matchRadius;
         A.hasPending = B.hasPending = false;
         const Vertex start = A.tip;
@@ -3077,14 +3083,17 @@ struct CutEngine::Impl {
         const bool walked = joined || walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen,
                                            A.tipDepth, A.tipDepth, &path);
         if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
+        if (!walked && walkUnreached) ++stats.cutOutsRefused;
         if (walked && A.alive) {
           A.tip = start;
           done = close(A, B, path);
-        } else if (path.size() > 1 && !liftCutOut && !movedSincePrev) {
+        } else if (path.size() > 1 && !liftCutOut && !movedSincePrev && !walkTooLong) {
           // Went part of the way: open what was inserted as an ordinary cut (not where
           // the blade never was: a lifted hand's cut ends at its crossings; nor on moved
           // tissue, where a blade that met none at a glancing entry set off a walk along
-          // the top face ahead of it: moving seeds 40651, 41234).
+          // the top face ahead of it: moving seeds 40651, 41234; nor a walk that ran over
+          // its length, round the object: slab 1279 opened 26 edges up to the top).
+          if (dbg()) std::cerr << "cutOut: opens the walk's " << path.size() - 1 << " edges as a cut\n";
           A.tip = start;
           for (std::size_t i = 1; i < path.size(); ++i) extend(A, path[i], A.tipDepth);
         }

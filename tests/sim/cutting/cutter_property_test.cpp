@@ -58,7 +58,8 @@ struct Quality {
   }
 };
 Quality g_seen;
-long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0;
+long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0,
+     g_refused = 0;
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 // LD_CUT_SEED_STATS=1: one line per seed on stderr (to compare runs stroke by stroke).
@@ -66,13 +67,14 @@ void seedStats(unsigned seed, const CutEngine& e) {
   static const bool on = std::getenv("LD_CUT_SEED_STATS") != nullptr;
   if (!on) return;
   const CutStats& st = e.stats();
-  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld cut %ld objects %zu\n", seed,
-               st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.trianglesCut, e.objects().size());
+  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu\n",
+               seed, st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
+               e.objects().size());
 }
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = g_refused = 0;
 }
 
 std::string seenText() {
@@ -80,7 +82,8 @@ std::string seenText() {
          std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
          ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops) +
-         ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " + std::to_string(g_pierced);
+         ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " + std::to_string(g_pierced) +
+         ", cut-outs refused " + std::to_string(g_refused);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
@@ -208,6 +211,7 @@ std::string runSeed(const Shape& shape, unsigned seed, int strokesPerMesh = 3, s
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
   g_pierced += e.stats().pairsPierced;
+  g_refused += e.stats().cutOutsRefused;
   seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   if (objectsLeft) *objectsLeft = e.objects().size();
@@ -263,6 +267,7 @@ std::string runDeepenSeed(const Shape& shape, unsigned seed, int strokesPerMesh 
   g_lipStops += e.stats().lipStops;
   g_ways += e.stats().waysChosen;
   g_pierced += e.stats().pairsPierced;
+  g_refused += e.stats().cutOutsRefused;
   seedStats(seed, e);
   g_trianglesCut += e.stats().trianglesCut;
   return {};
@@ -1162,6 +1167,22 @@ TEST(CutterPropertySeeds, Slab1051PairWithNoEdgeBehindPierces) { expectSeedPierc
 TEST(CutterPropertySeeds, Slab1529PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(0, 1529, 2); }
 TEST(CutterPropertySeeds, Cube2451PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(1, 2451); }
 TEST(CutterPropertySeeds, Disc3523PairWithNoEdgeBehindPierces) { expectSeedPiercesWithoutTheWalkRound(2, 3523); }
+
+// A cut-out joins the layers' tips as the blade leaves through both (cutOut). Where the
+// plane's curve from one tip reaches the other only round the object, the walk went that
+// way, failed, and opened what it had inserted as a cut where the blade never was (slab
+// 1115: 23 triangles cut, 10 without it). Traced first, it edits nothing and both layers
+// end at their tips.
+void expectSeedCutOutRefusesTheWayRound(std::size_t shape, unsigned seed) {
+  const std::size_t left = runFrozenSeed(shape, seed);
+  EXPECT_GE(g_refused, 1);
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_EQ(left, 1u);
+}
+TEST(CutterPropertySeeds, Slab1115CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(0, 1115); }
+TEST(CutterPropertySeeds, Slab1464CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(0, 1464); }
+TEST(CutterPropertySeeds, Disc3054CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(2, 3054); }
+TEST(CutterPropertySeeds, Cylinder4472CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(3, 4472); }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
