@@ -3092,7 +3092,7 @@ struct CutEngine::Impl {
           // the blade never was: a lifted hand's cut ends at its crossings; nor on moved
           // tissue, where a blade that met none at a glancing entry set off a walk along
           // the top face ahead of it: moving seeds 40651, 41234; nor a walk that ran over
-          // its length, round the object: slab 1279 opened 26 edges up to the top).
+          // its length, the wrong way: slab 1305 opened 11 edges 4 mm along the side).
           if (dbg()) std::cerr << "cutOut: opens the walk's " << path.size() - 1 << " edges as a cut\n";
           A.tip = start;
           for (std::size_t i = 1; i < path.size(); ++i) extend(A, path[i], A.tipDepth);
