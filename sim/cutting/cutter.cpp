@@ -2129,13 +2129,13 @@ struct CutEngine::Impl {
     double max = 0.0;
     [[nodiscard]] bool passedBy(const Vec3& q, double tol) const { return !dir.isZero() && q.dot(dir) - max > tol; }
   };
-  // A first step of a walk, where the plane leaves the tip's fan (face f) over edge (a, b).
+  // A step of a walk, where the plane leaves the tip's fan (face f) over edge (a, b) at q.
   struct Way {
     Face f;
     Vertex a, b;
-    Vec3 q;
-    double score;
-    int sign;
+    Vec3 q = Vec3::Zero();
+    double score = -1e300;
+    int sign = 1;
   };
   // Does the plane's curve from the tip at pv, leaving its fan by way w, reach the goal's
   // face (a face with the goal vertex) within maxLen, without passing the blade's reach or
@@ -2309,15 +2309,12 @@ struct CutEngine::Impl {
           return false;
         }
       }
-      // Candidates: where the plane leaves the fan of v, ahead of v.
+      // Candidates: where the plane leaves the fan of v, ahead of v (a crossing, or the
+      // corner vx on the plane).
       struct Cand {
+        Way way;
         bool isVertex = false;
         Vertex vx;
-        Vertex a, b;
-        Vec3 q;
-        double score = -1e300;
-        int sign = 1;
-        Face f;  // (a crossing's)
       } best;
       bool found = false;
       // The first step's crossings ahead (chooseWay; a corner on the plane, or more than
@@ -2362,9 +2359,9 @@ struct CutEngine::Impl {
             else
               ways[nWays++] = Way{f, a, b, q, score, sign};
           }
-          if (!found || score > best.score) {
+          if (!found || score > best.way.score) {
             found = true;
-            best = Cand{isV, vx, a, b, q, score, sign, f};
+            best = Cand{Way{f, a, b, q, score, sign}, isV, vx};
           }
         };
         if (atA) consider(true, a, m.position(a));
@@ -2376,21 +2373,20 @@ struct CutEngine::Impl {
       }
       if (found && choosing && !noChoice && nWays >= 2)
         if (const int k = wayToGoal(m, tr, pv, std::span(ways.data(), nWays), goal, n, maxLen, reach); k >= 0) {
-          const Way& w = ways[static_cast<std::size_t>(k)];
-          best = Cand{false, Vertex(), w.a, w.b, w.q, w.score, w.sign, w.f};
+          best = Cand{ways[static_cast<std::size_t>(k)], false, Vertex()};
         }
       // The trace only follows the plane: the walk snaps onto corners near it and stops
       // where the goal lies in any face around its tip, so it may arrive sooner (slab 4449:
       // the walk arrived within its length, the trace after 1.3-1.4 times that). Only a
       // curve clearly too long, or crossing the cut itself, fails here.
-      bool missed = false;
-      if (found && step == 0 && goal.mustReach && !best.isVertex &&
-          !curveReaches(m, tr, pv, Way{best.f, best.a, best.b, best.q, best.score, best.sign}, goal, n,
-                        kMustReachSlack * maxLen, reach, &missed) &&
-          missed) {
-        if (dbg()) std::cerr << "walk: its curve does not reach the goal from " << pv.transpose() << "\n";
-        walkUnreached = true;
-        return false;
+      if (found && step == 0 && goal.mustReach && !best.isVertex) {
+        bool missed = false;
+        const bool reached = curveReaches(m, tr, pv, best.way, goal, n, kMustReachSlack * maxLen, reach, &missed);
+        if (!reached && missed) {
+          if (dbg()) std::cerr << "walk: its curve does not reach the goal from " << pv.transpose() << "\n";
+          walkUnreached = true;
+          return false;
+        }
       }
       // On still tissue: the plane leaves the fan nowhere ahead but passes a corner ahead
       // within the snapping distance (a stroke along an earlier cut's lip, grazing its next
@@ -2405,34 +2401,35 @@ struct CutEngine::Impl {
             const double dist = std::abs(n.dot(m.position(x) - origin)), dl = d.norm();
             if (x == v || tr.visited.count(x) || dist > off || !(d.dot(heading) > 0.5 * dl)) continue;
             off = dist;
-            best = Cand{true, x, Vertex(), Vertex(), m.position(x), 1.0, 0, Face()};
+            best = Cand{Way{Face(), Vertex(), Vertex(), m.position(x), 1.0, 0}, true, x};
             found = grazed = true;
           }
-        if (grazed && dbg()) std::cerr << "walk: grazes " << best.q.transpose() << " off " << off << "\n";
+        if (grazed && dbg()) std::cerr << "walk: grazes " << best.way.q.transpose() << " off " << off << "\n";
       }
       if (!found) {
         if (dbg()) std::cerr << "walk: no candidate at " << pv.transpose() << " step " << step << "\n";
         walkAtRim = !closedObject(tr.object) && m.isBoundary(v);
         return false;
       }
-      if (sgn == 0 && !grazed) sgn = best.sign;
-      heading = (best.q - pv).normalized();
-      travelled += (best.q - pv).norm();
+      if (sgn == 0 && !grazed) sgn = best.way.sign;
+      heading = (best.way.q - pv).normalized();
+      travelled += (best.way.q - pv).norm();
       if (travelled > maxLen) {
         if (dbg()) std::cerr << "walk: too long at " << pv.transpose() << "\n";
         walkTooLong = true;
         return false;
       }
       const double s =
-          span.squaredNorm() > 0 ? std::clamp((best.q - depthFrom).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
+          span.squaredNorm() > 0 ? std::clamp((best.way.q - depthFrom).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
       const Vec3 depth = depth0 + s * (depth1 - depth0);
       // The blade cuts no surface beyond its tip: a groove's curve going deeper than the
       // blade has been since the tip (at the tip, the last sample, this one) has left it,
       // down an earlier cut's wall or the wrong way round the object, cutting all the
       // way (slab seeds 1207, 1446 ran along the slab's bottom until the walk was too
       // long). It stops there as at an earlier cut's lip, before cutting that far.
-      if (reach.passedBy(best.q, p.snapDistance)) {
-        if (dbg()) std::cerr << "walk: past the blade's reach at " << best.q.transpose() << " step " << step << "\n";
+      if (reach.passedBy(best.way.q, p.snapDistance)) {
+        if (dbg())
+          std::cerr << "walk: past the blade's reach at " << best.way.q.transpose() << " step " << step << "\n";
         walkAtLip = true;
         return false;
       }
@@ -2440,21 +2437,21 @@ struct CutEngine::Impl {
       if (best.isVertex) {
         N = best.vx;
       } else {
-        const Edge e = m.findEdge(best.a, best.b);
+        const Edge e = m.findEdge(best.way.a, best.way.b);
         bool blocked = false;
-        N = edgeSnap(m, e, best.q, &tr.visited, &blocked);
+        N = edgeSnap(m, e, best.way.q, &tr.visited, &blocked);
         if (blocked) {  // would touch the cut itself
           // ... unless that is where the walk goes (a cut joining its own start).
           if (goal.toVertex && (m.vertex(e, 0) == goal.vertex || m.vertex(e, 1) == goal.vertex) &&
               m.findEdge(v, goal.vertex).isValid())
             return true;
           // ... or the path turns back past its last edge's far end: split beside it.
-          if (!hairpinSplit(m, tr, v, e, best.q)) {
+          if (!hairpinSplit(m, tr, v, e, best.way.q)) {
             walkBlockedAt = e;
             return false;
           }
         }
-        if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.q);
+        if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.way.q);
         ++stats.trianglesCut;
         ++res->trianglesCut;
       }
