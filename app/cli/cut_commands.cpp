@@ -167,6 +167,12 @@ int cut(const Args& args) {
   j["triangles_added_per_cut_triangle"] =
       st.trianglesCut > 0 ? static_cast<double>(faces - static_cast<long>(facesBefore)) / st.trianglesCut : 0.0;
   j["walk_failures"] = st.walkFailures;
+  // How the failing walks ended (only the ends that occurred; sim/cutting/cutter.h).
+  j["walk_failures_by"] = nlohmann::json::object();
+  for (std::size_t k = 0; k < cutting::kWalkEnds; ++k)
+    if (st.walkFailuresBy[k] > 0)
+      j["walk_failures_by"][cutting::walkEndName(static_cast<cutting::WalkEnd>(k))] = st.walkFailuresBy[k];
+  j["lip_stops"] = st.lipStops;
   j["fill_failures"] = st.fillFailures;
   j["physics"] = physicsMode;
   j["active_region"] = regionMode;

@@ -236,6 +236,36 @@ Pose lerpPose(const Pose& a, const Pose& b, double s) {
 
 }  // namespace
 
+const char* walkEndName(WalkEnd e) {
+  switch (e) {
+    case WalkEnd::Reached:
+      return "reached";
+    case WalkEnd::AtLip:
+      return "at_lip";
+    case WalkEnd::PastReach:
+      return "past_reach";
+    case WalkEnd::AtRim:
+      return "at_rim";
+    case WalkEnd::NoWay:
+      return "no_way";
+    case WalkEnd::Unreached:
+      return "unreached";
+    case WalkEnd::TooLong:
+      return "too_long";
+    case WalkEnd::Blocked:
+      return "blocked";
+    case WalkEnd::NotAdjacent:
+      return "not_adjacent";
+    case WalkEnd::Refused:
+      return "refused";
+    case WalkEnd::AtEarlierWall:
+      return "at_earlier_wall";
+    case WalkEnd::Count:
+      break;
+  }
+  throw CutError("walkEndName: not a walk end");
+}
+
 struct CutEngine::Impl {
   CutParams p;
   std::vector<TissueObject> objects;
@@ -2003,7 +2033,7 @@ struct CutEngine::Impl {
     bool chooseWay = false;
     // Edit nothing unless the first step's curve reaches the point's face (the goal
     // vertex's) within kMustReachSlack times the walk's length (traced as in wayToGoal):
-    // otherwise the walk fails at once (walkUnreached).
+    // otherwise the walk fails at once (WalkEnd::Unreached).
     bool mustReach = false;
   };
   // The first step of a walk (and of pastBlade's trace of where it would go) only has to
@@ -2030,10 +2060,24 @@ struct CutEngine::Impl {
   // that curve would pass the blade's end first (pastBlade), the walk stops on the lip
   // and advance ends the track there: the crossing starts a new one beyond. (A groove
   // crossing a shallower groove still walks down its wall, across its bottom and up.)
-  bool walkAtLip = false;  // the last walk stopped there (acrossLip and pastBlade)
-  bool walkAtRim = false;  // the last walk found no way on at a sheet's rim (its edge or a slit)
-  bool walkUnreached = false;  // the last walk's first step does not reach its goal (mustReach)
-  bool walkTooLong = false;    // the last walk ran over its length
+  struct [[nodiscard]] WalkResult {
+    WalkEnd end = WalkEnd::Reached;
+    Edge blockedAt;  // Blocked: the edge whose crossing would have touched the cut
+    explicit operator bool() const { return end == WalkEnd::Reached; }
+    // Ends where the track stops short of an earlier cut's gap (or a sheet's rim) and the
+    // crossing starts a new track beyond: a lip stop, not a failure.
+    [[nodiscard]] bool atLip() const {
+      return end == WalkEnd::AtLip || end == WalkEnd::PastReach || end == WalkEnd::AtRim;
+    }
+    // x is an end of blockedAt (live in m: the caller checks).
+    [[nodiscard]] bool blockedAtEnd(const SurfaceMesh& m, Vertex x) const {
+      return x.isValid() && (m.vertex(blockedAt, 0) == x || m.vertex(blockedAt, 1) == x);
+    }
+  };
+  void countWalkFailure(WalkEnd end) {
+    ++stats.walkFailures;
+    ++stats.walkFailuresBy[static_cast<std::size_t>(end)];
+  }
 
   // The sweep plane through `origin` (normal n) on mesh m: a vertex's side of it, and
   // where it crosses the edge from a to b (ends on either side).
@@ -2258,15 +2302,10 @@ struct CutEngine::Impl {
   // lies in a face around the current vertex (or the goal vertex is a neighbour).
   // With `collect`, the new vertices are only inserted and listed (the cut does not
   // open along them yet).
-  Edge walkBlockedAt;  // the edge whose crossing stopped the last walk next to the cut
-  // x is an end of walkBlockedAt (live in m: the caller checks).
-  bool blockedAtEnd(const SurfaceMesh& m, Vertex x) const {
-    return x.isValid() && (m.vertex(walkBlockedAt, 0) == x || m.vertex(walkBlockedAt, 1) == x);
-  }
-  bool walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen, const Vec3& depth0,
-            const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
-    walkBlockedAt = Edge();
-    walkUnreached = walkTooLong = false;
+  WalkResult walk(Track& tr, const WalkGoal& goal, const Vec3& n, const Vec3& forward, double maxLen,
+                  const Vec3& depth0, const Vec3& depth1, std::vector<Vertex>* collect = nullptr) {
+    const auto ended = [](WalkEnd e) { return WalkResult{e, Edge()}; };
+    const WalkResult reached;
     const Vec3 origin = meshOf(tr.object).position(tr.tip);
     // depth0 belongs to the last sampled point (the pending one, else the tip): the
     // depth at a crossing is interpolated between the two samples around it, so it does
@@ -2292,21 +2331,20 @@ struct CutEngine::Impl {
         return true;
       };
       if (goal.toVertex) {
-        if (v == goal.vertex) return true;
+        if (v == goal.vertex) return reached;
         for (Face f : around)
-          if (!own(f) && m.localIndex(f, goal.vertex) >= 0) return true;
+          if (!own(f) && m.localIndex(f, goal.vertex) >= 0) return reached;
       } else {
-        if ((goal.point - pv).norm() <= 1e-9 * scaleOf(pv)) return true;
+        if ((goal.point - pv).norm() <= 1e-9 * scaleOf(pv)) return reached;
         for (Face f : around)
           if (pointInFace(m, f, goal.point)) {
             tr.pendingFace = f;
-            return true;
+            return reached;
           }
         if (goal.stopAtLip && acrossLip(m, tr, v, around, goal) &&
             pastBlade(m, v, goal, n, heading, depth1, maxLen - travelled)) {
           if (dbg()) std::cerr << "walk: at an earlier cut's lip at " << pv.transpose() << " step " << step << "\n";
-          walkAtLip = true;
-          return false;
+          return ended(WalkEnd::AtLip);
         }
       }
       // Candidates: where the plane leaves the fan of v, ahead of v (a crossing, or the
@@ -2381,11 +2419,10 @@ struct CutEngine::Impl {
       // curve clearly too long, or crossing the cut itself, fails here.
       if (found && step == 0 && goal.mustReach && !best.isVertex) {
         bool missed = false;
-        const bool reached = curveReaches(m, tr, pv, best.way, goal, n, kMustReachSlack * maxLen, reach, &missed);
-        if (!reached && missed) {
+        const bool reaches = curveReaches(m, tr, pv, best.way, goal, n, kMustReachSlack * maxLen, reach, &missed);
+        if (!reaches && missed) {
           if (dbg()) std::cerr << "walk: its curve does not reach the goal from " << pv.transpose() << "\n";
-          walkUnreached = true;
-          return false;
+          return ended(WalkEnd::Unreached);
         }
       }
       // On still tissue: the plane leaves the fan nowhere ahead but passes a corner ahead
@@ -2408,16 +2445,14 @@ struct CutEngine::Impl {
       }
       if (!found) {
         if (dbg()) std::cerr << "walk: no candidate at " << pv.transpose() << " step " << step << "\n";
-        walkAtRim = !closedObject(tr.object) && m.isBoundary(v);
-        return false;
+        return ended(!closedObject(tr.object) && m.isBoundary(v) ? WalkEnd::AtRim : WalkEnd::NoWay);
       }
       if (sgn == 0 && !grazed) sgn = best.way.sign;
       heading = (best.way.q - pv).normalized();
       travelled += (best.way.q - pv).norm();
       if (travelled > maxLen) {
         if (dbg()) std::cerr << "walk: too long at " << pv.transpose() << "\n";
-        walkTooLong = true;
-        return false;
+        return ended(WalkEnd::TooLong);
       }
       const double s =
           span.squaredNorm() > 0 ? std::clamp((best.way.q - depthFrom).dot(span) / span.squaredNorm(), 0.0, 1.0) : 0.0;
@@ -2430,8 +2465,7 @@ struct CutEngine::Impl {
       if (reach.passedBy(best.way.q, p.snapDistance)) {
         if (dbg())
           std::cerr << "walk: past the blade's reach at " << best.way.q.transpose() << " step " << step << "\n";
-        walkAtLip = true;
-        return false;
+        return ended(WalkEnd::PastReach);
       }
       Vertex N;
       if (best.isVertex) {
@@ -2444,18 +2478,15 @@ struct CutEngine::Impl {
           // ... unless that is where the walk goes (a cut joining its own start).
           if (goal.toVertex && (m.vertex(e, 0) == goal.vertex || m.vertex(e, 1) == goal.vertex) &&
               m.findEdge(v, goal.vertex).isValid())
-            return true;
+            return reached;
           // ... or the path turns back past its last edge's far end: split beside it.
-          if (!hairpinSplit(m, tr, v, e, best.way.q)) {
-            walkBlockedAt = e;
-            return false;
-          }
+          if (!hairpinSplit(m, tr, v, e, best.way.q)) return WalkResult{WalkEnd::Blocked, e};
         }
         if (!N.isValid()) N = splitEdgeAt(tr.object, e, best.way.q);
         ++stats.trianglesCut;
         ++res->trianglesCut;
       }
-      if (!m.findEdge(v, N).isValid()) return false;
+      if (!m.findEdge(v, N).isValid()) return ended(WalkEnd::NotAdjacent);
       if (collect) {
         mark(tr, N);
         tr.tip = N;
@@ -2463,12 +2494,12 @@ struct CutEngine::Impl {
         continue;
       }
       extend(tr, N, depth);
-      if (tr.tip != N) return false;
+      if (tr.tip != N) return ended(WalkEnd::Refused);
       // A cut-through stops on the wall of another cut (it would walk down that wall
       // to the other layer): advance waits there for the partner (onEarlierWall).
-      if (tr.partner >= 0 && !tr.tunnel && onEarlierWall(tr)) return false;
+      if (tr.partner >= 0 && !tr.tunnel && onEarlierWall(tr)) return ended(WalkEnd::AtEarlierWall);
     }
-    return false;
+    return ended(WalkEnd::TooLong);
   }
 
   // Plane normal for a path from `from` toward `to` swept by an edge along `blade`.
@@ -2740,11 +2771,10 @@ struct CutEngine::Impl {
         break;
       }
     const Vec3 n = sweepNormal(from, h.point, bladeDir, fallback);
-    bool ok = true;
+    WalkResult w{WalkEnd::NoWay, Edge()};
     if (n.isZero()) {
-      ok = false;
       for (Face f : m.faces(tr.tip))
-        if (pointInFace(m, f, h.point)) ok = true;
+        if (pointInFace(m, f, h.point)) w.end = WalkEnd::Reached;
     } else {
       const double dist = (h.point - from).norm();
       WalkGoal g;
@@ -2753,28 +2783,28 @@ struct CutEngine::Impl {
       // (A cut-through's layers wait on an earlier cut's wall for each other instead.)
       g.stopAtLip = tr.partner < 0 || tr.tunnel;
       const Vec3 d0 = tr.hasPending ? tr.pendingDepth : tr.tipDepth;
-      walkAtLip = walkAtRim = false;
       // (Still, closed tissue: the reach for grooves, the choice of way for every track.)
       const bool stillClosed = !movedSincePrev && closedObject(tr.object);
       if (stillClosed && tr.partner < 0 && !tr.tunnel && h.dir != 0) g.reach = h.dir * bladeDir;
       g.chooseWay = stillClosed;
-      ok = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
+      w = walk(tr, g, n, (h.point - from).normalized(), 4.0 * dist + 4.0 * p.matchRadius, d0, h.depth);
     }
-    if (!ok && (walkAtLip || walkAtRim)) {
+    const bool ok = static_cast<bool>(w);
+    if (w.atLip()) {
       // An earlier cut's lip, the blade's point across its gap: the track ends here and
       // the hit starts a new one beyond. On a sheet the slit (or the rim) itself: no
       // tissue joins the tip to the point, and the new track starts on the far lip, on
       // this walk's plane (commitStart: rimBehind).
       if (dbg())
-        std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip (sheet " << walkAtRim << ")\n";
+        std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip (" << walkEndName(w.end) << ")\n";
       ++stats.lipStops;
       tr.hasPending = false;
       end(tr);
       h.used = false;
-      if (walkAtRim) h.restart = Hit::PastSlit{from - h.point, n};
+      if (w.end == WalkEnd::AtRim) h.restart = Hit::PastSlit{from - h.point, n};
       return;
     }
-    if (!ok && walkBlockedAt.isValid()) {
+    if (w.end == WalkEnd::Blocked) {
       // The crossing has reached the other layer's tip (both layers leave over the
       // same side, and the other got there first): nothing is left to cut on this side
       // of it; the track waits for the cut-out.
@@ -2782,8 +2812,8 @@ struct CutEngine::Impl {
       // Likewise at the cut's own start (a pierce coming round to it): it joins there
       // when it ends (joinStart).
       if (const Track* P = trackById(tr.partner);
-          P && P->tip.isValid() && mb.isValid(walkBlockedAt) &&
-          (blockedAtEnd(mb, P->tip) || blockedAtEnd(mb, tr.first) || blockedAtEnd(mb, P->first))) {
+          P && P->tip.isValid() && mb.isValid(w.blockedAt) &&
+          (w.blockedAtEnd(mb, P->tip) || w.blockedAtEnd(mb, tr.first) || w.blockedAtEnd(mb, P->first))) {
         if (dbg()) std::cerr << "advance: track " << tr.id << " holds at its partner's tip\n";
         ++stats.holds;
         return;
@@ -2818,11 +2848,11 @@ struct CutEngine::Impl {
         }
         std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << " from "
                   << from.transpose() << " hitface own " << own << " kind " << kind << " partner " << tr.partner
-                  << " chain " << tr.chain.size() << "\n";
+                  << " chain " << tr.chain.size() << " (" << walkEndName(w.end) << ")\n";
       }
-      ++stats.walkFailures;
+      countWalkFailure(w.end);
       tr.hasPending = false;
-      if (!movedSincePrev) backPastStart(tr, h);
+      if (!movedSincePrev && w.end == WalkEnd::Blocked) backPastStart(tr, w, h);
       end(tr);
       h.used = false;  // a fresh track starts at the hit
       return;
@@ -2838,10 +2868,10 @@ struct CutEngine::Impl {
   // its crossing back along the cut faster than it moves; deepening seeds 20087, 20207).
   // The track ends; the new one starts just past the old start, toward the crossing,
   // instead of at the crossing (the stretch between used to stay uncut).
-  void backPastStart(const Track& tr, Hit& h) {
+  void backPastStart(const Track& tr, const WalkResult& w, Hit& h) {
     const SurfaceMesh& m = meshOf(tr.object);
-    if (!m.isValid(walkBlockedAt) || !m.isValid(tr.first) ||
-        !(blockedAtEnd(m, tr.prevTip) || blockedAtEnd(m, tr.prevTipCopy)))
+    if (!m.isValid(w.blockedAt) || !m.isValid(tr.first) ||
+        !(w.blockedAtEnd(m, tr.prevTip) || w.blockedAtEnd(m, tr.prevTipCopy)))
       return;
     const Vec3 pf = m.position(tr.first), pt = m.position(tr.tip), r = h.point - pf;
     if (!((pt - pf).norm() > 0.0)) return;
@@ -2877,8 +2907,9 @@ struct CutEngine::Impl {
       if (!n.isZero() && (goalPoint - from).cross(blade).norm() > 1e-6 * (goalPoint - from).norm()) {
         WalkGoal g;
         g.point = goalPoint;
-        walk(tr, g, n, (goalPoint - from).normalized(), (goalPoint - from).norm() + p.snapDistance, tr.tipDepth,
-             tr.tipDepth);
+        // (However far it gets, the cut ends there.)
+        (void)walk(tr, g, n, (goalPoint - from).normalized(), (goalPoint - from).norm() + p.snapDistance, tr.tipDepth,
+                   tr.tipDepth);
         tr.hasPending = false;
         // A cut from rim to rim may have freed a piece of the sheet.
         if (tr.tip.isValid() && meshOf(tr.object).isBoundary(tr.tip)) checkSeparation.push_back(tr.object);
@@ -3001,8 +3032,9 @@ struct CutEngine::Impl {
       g.vertex = goalV;
       const bool hadPending = T.hasPending;
       T.hasPending = false;
-      const bool ok = walk(T, g, n, (to - from).normalized(), 3.0 * (to - from).norm() + 2.0 * p.matchRadius,
-                           T.tipDepth, T.tipDepth, &path);
+      const bool ok =
+          static_cast<bool>(walk(T, g, n, (to - from).normalized(), 3.0 * (to - from).norm() + 2.0 * p.matchRadius,
+                                 T.tipDepth, T.tipDepth, &path));
       T.tip = start;
       T.hasPending = hadPending;
       return ok && T.alive;
@@ -3077,14 +3109,16 @@ struct CutEngine::Impl {
           for (int k = 0; k < 2 && joined; ++k)
             if (const Face fk = m.face(eAB, k); !fk.isValid() || kindAB[fk] != kSurface) joined = false;
         }
-        const bool walked = joined || walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen,
+        const WalkResult w = joined ? WalkResult{}
+                                    : walk(A, g, n, first.allFinite() ? first : Vec3(motion.normalized()), maxLen,
                                            A.tipDepth, A.tipDepth, &path);
-        if (dbg()) std::cerr << "cutOut walk " << walked << " path " << path.size() << "\n";
-        if (!walked && walkUnreached) ++stats.cutOutsRefused;
+        const bool walked = static_cast<bool>(w);
+        if (dbg()) std::cerr << "cutOut walk " << walkEndName(w.end) << " path " << path.size() << "\n";
+        if (w.end == WalkEnd::Unreached) ++stats.cutOutsRefused;
         if (walked && A.alive) {
           A.tip = start;
           done = close(A, B, path);
-        } else if (path.size() > 1 && !liftCutOut && !movedSincePrev && !walkTooLong) {
+        } else if (path.size() > 1 && !liftCutOut && !movedSincePrev && w.end != WalkEnd::TooLong) {
           // Went part of the way: open what was inserted as an ordinary cut (not where
           // the blade never was: a lifted hand's cut ends at its crossings; nor on moved
           // tissue, where a blade that met none at a glancing entry set off a walk along
@@ -3547,16 +3581,17 @@ struct CutEngine::Impl {
       Vec3 first = -motion.normalized();
       if ((h0.point - from).norm() > 1e-12) first += (h0.point - from).normalized();
       if (first.norm() < 1e-9) first = -motion;
-      ok = !n2.isZero() &&
-           walk(a, g, n2, first.normalized(), 3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
-                h0.depth, h0.depth, &path);
+      const WalkResult w = n2.isZero() ? WalkResult{WalkEnd::NoWay, Edge()}
+                                       : walk(a, g, n2, first.normalized(),
+                                              3.0 * ((h0.point - from).norm() + motion.norm()) + 2.0 * p.matchRadius,
+                                              h0.depth, h0.depth, &path);
       a.pending = h0.point;
       a.pendingDepth = h0.depth;
       a.hasPending = true;
       b.pending = h1.point;
       b.pendingDepth = h1.depth;
       b.hasPending = true;
-      if (ok) {
+      if (w) {
         // The cut-in path sB -> ... -> a.tip stays closed for now: it is the front
         // between the layers and opens with the first step of either layer (its walls
         // then have the blade's motion as width, not zero).
@@ -3569,7 +3604,10 @@ struct CutEngine::Impl {
         a.visited.forEach([&](Vertex x) { b.visited.insert(x); });
         return;
       }
-      ++(walkUnreached ? stats.pairsPierced : stats.walkFailures);
+      if (w.end == WalkEnd::Unreached)
+        ++stats.pairsPierced;
+      else
+        countWalkFailure(w.end);
       // Could not join the layers around the edge (e.g. a side the tissue's motion made
       // wavy): the path found is not the cut's (opening along it made long wrong cuts),
       // so nothing opens there; the two crossings go on as a pierce through both layers.

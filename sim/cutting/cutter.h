@@ -13,6 +13,7 @@
 // vertex when the blade leaves the triangle or the cut ends. A closed mesh stays
 // closed, manifold and consistently oriented after every call. When a cut-through
 // frees a part, it becomes an object of its own (StepResult::separated).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -124,6 +125,27 @@ struct StepResult {
   bool topologyChanged = false;
 };
 
+// How a track's walk along the blade's sweep plane ended (sim/cutting/README.md, Method).
+// Every end but Reached leaves the walk short of the blade's point; which of them end the
+// track is the caller's choice (a lip stop, a hold, or a walk failure).
+enum class WalkEnd : std::uint8_t {
+  Reached,        // the point lies in a face around the tip (or the goal vertex is a neighbour)
+  AtLip,          // on an earlier cut's lip, the point across its gap
+  PastReach,      // a groove's curve went deeper than the blade has been
+  AtRim,          // no way on at a sheet's rim or slit
+  NoWay,          // the plane leaves the tip's fan nowhere ahead
+  Unreached,      // the first step's traced curve misses the point: nothing was edited
+  TooLong,        // ran over the walk's length
+  Blocked,        // the next crossing would touch the cut itself
+  NotAdjacent,    // the next vertex is no neighbour of the tip
+  Refused,        // the extension did not take the step (it would pinch or make a sliver)
+  AtEarlierWall,  // a cut-through's layer reached another cut's wall
+  Count
+};
+inline constexpr std::size_t kWalkEnds = static_cast<std::size_t>(WalkEnd::Count);
+// Short snake_case name ("no_way"), for reports.
+[[nodiscard]] const char* walkEndName(WalkEnd e);
+
 struct CutStats {
   long trianglesCut = 0;
   long trianglesAdded = 0;
@@ -131,6 +153,9 @@ struct CutStats {
   long tracks = 0;
   long separations = 0;
   long walkFailures = 0;           // a track could not follow the blade and was ended
+  // Of those, the ones a walk ended, by how it ended (the rest: starts whose face was
+  // gone). Indexed by WalkEnd.
+  std::array<long, kWalkEnds> walkFailuresBy{};
   long lipStops = 0;               // tracks ended on an earlier cut's lip, the blade across its gap (restarted there)
   long waysChosen = 0;             // walks whose first step took another way: its curve reaches the blade
   long pairsPierced = 0;           // slide-ins whose way round the edge misses the other crossing: pierced instead

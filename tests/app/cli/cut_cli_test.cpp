@@ -106,6 +106,11 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
     EXPECT_EQ(a[k], b[k]) << k;
   }
   EXPECT_EQ(a["holds"], 0) << "still tissue never runs ahead of the blade";
+  // The groove follows the blade all the way: no failure, so none listed by its end.
+  EXPECT_EQ(a["walk_failures"], 0);
+  ASSERT_TRUE(a["walk_failures_by"].is_object());
+  EXPECT_TRUE(a["walk_failures_by"].empty()) << a["walk_failures_by"].dump();
+  EXPECT_EQ(a["lip_stops"], 0);
 }
 
 TEST(CutCli, PhysicsOnRunsAndStaysFinite) {

@@ -60,6 +60,16 @@ struct Quality {
 Quality g_seen;
 long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0,
      g_refused = 0;
+std::array<long, kWalkEnds> g_failuresBy{};
+
+// " (no_way 2, blocked 1)": the walk failures by how the walk ended (empty if none).
+std::string failureEnds(const std::array<long, kWalkEnds>& by) {
+  std::string s;
+  for (std::size_t k = 0; k < kWalkEnds; ++k)
+    if (by[k] > 0)
+      s += (s.empty() ? " (" : ", ") + std::string(walkEndName(static_cast<WalkEnd>(k))) + " " + std::to_string(by[k]);
+  return s.empty() ? s : s + ")";
+}
 bool g_strictHeight = std::getenv("LD_CUT_LAX_SLIVERS") == nullptr;
 
 // LD_CUT_SEED_STATS=1: one line per seed on stderr (to compare runs stroke by stroke).
@@ -67,14 +77,26 @@ void seedStats(unsigned seed, const CutEngine& e) {
   static const bool on = std::getenv("LD_CUT_SEED_STATS") != nullptr;
   if (!on) return;
   const CutStats& st = e.stats();
-  std::fprintf(stderr, "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu\n",
-               seed, st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
-               e.objects().size());
+  std::fprintf(stderr,
+               "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu%s\n", seed,
+               st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
+               e.objects().size(), failureEnds(st.walkFailuresBy).c_str());
 }
 
 // Adds a finished seed's counts to the run's (and prints its line: seedStats).
 void tally(unsigned seed, const CutEngine& e) {
   const CutStats& st = e.stats();
+  // Every walk failure counted by its end is a walk failure, and no end that stops a
+  // track short of a gap (a lip stop) or reaches the blade is counted as one.
+  long byEnd = 0;
+  for (std::size_t k = 0; k < kWalkEnds; ++k) {
+    byEnd += st.walkFailuresBy[k];
+    g_failuresBy[k] += st.walkFailuresBy[k];
+  }
+  EXPECT_LE(byEnd, st.walkFailures) << "seed " << seed;
+  for (WalkEnd notAFailure : {WalkEnd::Reached, WalkEnd::AtLip, WalkEnd::PastReach, WalkEnd::AtRim})
+    EXPECT_EQ(st.walkFailuresBy[static_cast<std::size_t>(notAFailure)], 0)
+        << "seed " << seed << ": " << walkEndName(notAFailure);
   g_walkFailures += st.walkFailures;
   g_lipStops += st.lipStops;
   g_ways += st.waysChosen;
@@ -87,15 +109,16 @@ void tally(unsigned seed, const CutEngine& e) {
 void resetSeen() {
   g_seen = Quality{};
   g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = g_refused = 0;
+  g_failuresBy.fill(0);
 }
 
 std::string seenText() {
   return "thinnest triangle height " + std::to_string(g_seen.height) + " mm, smallest area " +
          std::to_string(g_seen.area) + " mm2, smallest angle " + std::to_string(g_seen.angleDeg) +
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
-         ", walk failures " + std::to_string(g_walkFailures) + ", lip stops " + std::to_string(g_lipStops) +
-         ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " + std::to_string(g_pierced) +
-         ", cut-outs refused " + std::to_string(g_refused);
+         ", walk failures " + std::to_string(g_walkFailures) + failureEnds(g_failuresBy) + ", lip stops " +
+         std::to_string(g_lipStops) + ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " +
+         std::to_string(g_pierced) + ", cut-outs refused " + std::to_string(g_refused);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
