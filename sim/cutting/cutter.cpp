@@ -190,6 +190,9 @@ struct Track {
   // The walk has reached the wall of an earlier cut (another stroke's slot) and stops
   // there: when the partner has too, the pair cuts out across that wall.
   bool atWall = false;
+  // Samples it has waited on such a wall with the blade's point past the matching radius
+  // (advance: kWallWaitsPastRadius).
+  int wallWaitsPastRadius = 0;
   VertexSet visited;  // path vertices, their copies and this cut's wall apexes
   // start and pending as points of the tissue (set at the end of every sample), and the
   // object's motion count they were taken at: a moved object moves them too.
@@ -2042,6 +2045,10 @@ struct CutEngine::Impl {
   // WalkGoal::mustReach refuses a first step whose traced curve is longer than this many
   // times the walk's length.
   static constexpr double kMustReachSlack = 1.4;
+  // Samples a cut-through layer waits on an earlier cut's wall for its partner with the
+  // blade's point past the matching radius (scale 50: at 1, two pieces fewer come free; at
+  // 3, none more, and longer stretches go uncut: sim/cutting/README.md, Limits).
+  static constexpr int kWallWaitsPastRadius = 2;
   // A face of v's fan, from v: v's corner index (-1: not a corner) and the corners after
   // it, the edge where the plane leaves the fan.
   struct FanEdge {
@@ -2819,8 +2826,14 @@ struct CutEngine::Impl {
         return;
       }
     }
+    // A walk that stopped on the wall itself waits there with the point past the matching
+    // radius too, for a sample or two: crossing an earlier slot at a slant, the other
+    // layer gets there a sample or two later (disc 3227, cylinder 4664 free their piece).
+    // Any longer, the layer would keep taking the blade's crossings while the blade
+    // moves on, and start its new track later, past tissue it used to cut.
+    const bool withinRadius = (h.point - meshOf(tr.object).position(tr.tip)).norm() <= p.matchRadius;
     if (!ok && !tr.tunnel && onEarlierWall(tr) &&
-        (h.point - meshOf(tr.object).position(tr.tip)).norm() <= p.matchRadius) {
+        (withinRadius || (w.end == WalkEnd::AtEarlierWall && tr.wallWaitsPastRadius++ < kWallWaitsPastRadius))) {
       // An earlier cut's wall ahead (its slot is closed: the walls coincide): wait
       // there for the other layer; once both are on it, cut out across it.
       if (dbg()) std::cerr << "advance: track " << tr.id << " at an earlier cut's wall\n";

@@ -1207,6 +1207,23 @@ TEST(CutterPropertySeeds, Slab1464CutOutRefusesTheWayRound) { expectSeedCutOutRe
 TEST(CutterPropertySeeds, Disc3054CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(2, 3054); }
 TEST(CutterPropertySeeds, Cylinder4472CutOutRefusesTheWayRound) { expectSeedCutOutRefusesTheWayRound(3, 4472); }
 
+// A cut-through layer whose walk stopped on an earlier cut's wall, the blade's point past
+// the matching radius, waits there a sample or two for its partner: crossing the earlier
+// slot at a slant, the partner gets there then, and the two cut out across the wall,
+// which frees the piece between the cuts. Before, the layer failed (one walk failure),
+// restarted beyond the wall, and the piece stayed on.
+void expectSeedWaitsOnAnEarlierWallAndFrees(std::size_t shape, unsigned seed) {
+  const std::size_t left = runFrozenSeed(shape, seed);
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_EQ(left, 2u);
+}
+TEST(CutterPropertySeeds, Disc3227LayerWaitsOnAnEarlierWallAndFreesThePiece) {
+  expectSeedWaitsOnAnEarlierWallAndFrees(2, 3227);
+}
+TEST(CutterPropertySeeds, Cylinder4664LayerWaitsOnAnEarlierWallAndFreesThePiece) {
+  expectSeedWaitsOnAnEarlierWallAndFrees(3, 4664);
+}
+
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),
 // or <file in ../shared/data/meshes>:<seed>.
 TEST(CutterProperty, ReplaySeed) {
