@@ -2831,9 +2831,12 @@ struct CutEngine::Impl {
     // layer gets there a sample or two later (disc 3227, cylinder 4664 free their piece).
     // Any longer, the layer would keep taking the blade's crossings while the blade
     // moves on, and start its new track later, past tissue it used to cut.
-    const bool withinRadius = (h.point - meshOf(tr.object).position(tr.tip)).norm() <= p.matchRadius;
-    if (!ok && !tr.tunnel && onEarlierWall(tr) &&
-        (withinRadius || (w.end == WalkEnd::AtEarlierWall && tr.wallWaitsPastRadius++ < kWallWaitsPastRadius))) {
+    bool waitsOnWall = !ok && !tr.tunnel && onEarlierWall(tr);
+    if (waitsOnWall && (h.point - meshOf(tr.object).position(tr.tip)).norm() > p.matchRadius) {
+      waitsOnWall = w.end == WalkEnd::AtEarlierWall && tr.wallWaitsPastRadius < kWallWaitsPastRadius;
+      if (waitsOnWall) ++tr.wallWaitsPastRadius;
+    }
+    if (waitsOnWall) {
       // An earlier cut's wall ahead (its slot is closed: the walls coincide): wait
       // there for the other layer; once both are on it, cut out across it.
       if (dbg()) std::cerr << "advance: track " << tr.id << " at an earlier cut's wall\n";
