@@ -1,4 +1,6 @@
-// lapdissect-cli cut: the real binary on a small box and a trajectory written here.
+// lapdissect-cli cut: the real binary on a small box and a trajectory written here (and on one
+// bundled task, scripted).
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -111,6 +113,32 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
   ASSERT_TRUE(a["walk_failures_by"].is_object());
   EXPECT_TRUE(a["walk_failures_by"].empty()) << a["walk_failures_by"].dump();
   EXPECT_EQ(a["lip_stops"], 0);
+}
+
+// The circle task's scripted stroke, as the CLI replays it: the walk failures it reports
+// are listed by how their walk ended, none of them an end that does not fail a track.
+TEST(CutCli, WalkFailuresAreListedByHowTheWalkEnded) {
+  const char* env = std::getenv("LD_RESOURCES");
+  const fs::path res = env ? fs::path(env) : fs::path(LD_RESOURCES_DIR);
+  TempDir d;
+  const auto traj = d.path / "circle.csv";
+  const auto script = runCommand(std::string(LD_CLI) + " task script --task " +
+                                 shellQuote((res / "tasks" / "slab-circle-cutout.json").string()) +
+                                 " --level 0 --rate 1000 --out " + shellQuote(traj.string()));
+  ASSERT_EQ(script.exitCode, 0) << script.err;
+  const auto j = run("cut --mesh " + shellQuote((res / "models" / "tissue_slab.obj").string()) + " --trajectory " +
+                     shellQuote(traj.string()) + " --physics off");
+  ASSERT_TRUE(j["walk_failures_by"].is_object());
+  long sum = 0;
+  for (const auto& [end, n] : j["walk_failures_by"].items()) {
+    EXPECT_TRUE(end == "no_way" || end == "unreached" || end == "too_long" || end == "blocked" ||
+                end == "not_adjacent" || end == "refused" || end == "at_earlier_wall")
+        << end;
+    EXPECT_GT(n.get<long>(), 0) << end;
+    sum += n.get<long>();
+  }
+  EXPECT_EQ(sum, j["walk_failures"].get<long>());
+  EXPECT_GE(j["lip_stops"].get<long>(), 0);
 }
 
 TEST(CutCli, PhysicsOnRunsAndStaysFinite) {
