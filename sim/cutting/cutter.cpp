@@ -2398,15 +2398,16 @@ struct CutEngine::Impl {
           // object the curve may turn square to `forward`); later steps keep the
           // curve's orientation.
           if (sgn == 0 ? score <= kFirstStepMinCos : score <= 1e-9) return;
+          const Way way{f, a, b, q, score, sign};
           if (choosing) {
             if (isV || nWays == ways.size())
               noChoice = true;
             else
-              ways[nWays++] = Way{f, a, b, q, score, sign};
+              ways[nWays++] = way;
           }
           if (!found || score > best.way.score) {
             found = true;
-            best = Cand{Way{f, a, b, q, score, sign}, isV, vx};
+            best = Cand{way, isV, vx};
           }
         };
         if (atA) consider(true, a, m.position(a));
