@@ -9,23 +9,9 @@
 #include <gtest/gtest.h>
 #include <Eigen/Core>
 
+#include "tests/support/data_paths.h"
+
 namespace ld::test {
-
-inline std::filesystem::path sharedDataDir() {
-  if (const char* env = std::getenv("LD_SHARED_DATA")) return env;
-  return LD_SHARED_DATA_DIR;
-}
-
-inline std::filesystem::path resourcesDir() {
-  if (const char* env = std::getenv("LD_RESOURCES")) return env;
-  return LD_RESOURCES_DIR;
-}
-
-// Path of a file in ../shared/data, or empty when the folder is absent.
-inline std::filesystem::path sharedData(const std::string& rel) {
-  auto p = sharedDataDir() / rel;
-  return std::filesystem::exists(p) ? p : std::filesystem::path();
-}
 
 #define LD_REQUIRE_SHARED_DATA(var, rel)                                                             \
   const std::filesystem::path var = ::ld::test::sharedData(rel);                                     \

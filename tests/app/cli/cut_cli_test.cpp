@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/data_paths.h"
 #include "tests/support/run_command.h"
 
 namespace {
@@ -118,8 +119,7 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
 // The circle task's scripted stroke, as the CLI replays it: the walk failures it reports
 // are listed by how their walk ended, none of them an end that does not fail a track.
 TEST(CutCli, WalkFailuresAreListedByHowTheWalkEnded) {
-  const char* env = std::getenv("LD_RESOURCES");
-  const fs::path res = env ? fs::path(env) : fs::path(LD_RESOURCES_DIR);
+  const fs::path res = ld::test::resourcesDir();
   TempDir d;
   const auto traj = d.path / "circle.csv";
   const auto script = runCommand(std::string(LD_CLI) + " task script --task " +

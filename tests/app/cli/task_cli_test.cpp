@@ -7,17 +7,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/data_paths.h"
 #include "tests/support/run_command.h"
 
 namespace {
 
-// (test_support.h needs Eigen, which the CLI tests do not link.)
-std::filesystem::path resourcesDir() {
-  if (const char* env = std::getenv("LD_RESOURCES")) return env;
-  return LD_RESOURCES_DIR;
-}
-
 namespace fs = std::filesystem;
+using ld::test::resourcesDir;
 using ld::test::runCommand;
 using ld::test::shellQuote;
 
