@@ -2866,7 +2866,14 @@ struct CutEngine::Impl {
         std::cerr << "advance: walk failed for track " << tr.id << " to " << h.point.transpose() << " from "
                   << from.transpose() << " hitface own " << own << " kind " << kind << " partner " << tr.partner
                   << " chain " << tr.chain.size() << " (" << walkEndName(w.end) << ")\n";
+        if (w.end == WalkEnd::Blocked && md.isValid(w.blockedAt))
+          std::cerr << "advance: blocked next to" << (w.blockedAtEnd(md, tr.first) ? " its first vertex" : "")
+                    << (w.blockedAtEnd(md, tr.prevTip) || w.blockedAtEnd(md, tr.prevTipCopy) ? " its last edge" : "")
+                    << " (path " << tr.pathLength << ")\n";
       }
+      if (const SurfaceMesh& mb0 = meshOf(tr.object); w.end == WalkEnd::Blocked && mb0.isValid(w.blockedAt) &&
+                                                      w.blockedAtEnd(mb0, tr.first) && closeOnStart(tr, h.point))
+        return;  // (the hit is at the start: taken)
       countWalkFailure(w.end);
       tr.hasPending = false;
       if (!movedSincePrev && w.end == WalkEnd::Blocked) backPastStart(tr, w, h);
@@ -2877,6 +2884,90 @@ struct CutEngine::Impl {
     tr.pending = h.point;
     tr.pendingDepth = h.depth;
     tr.hasPending = true;
+  }
+
+  // A groove come round to its own start (a circle traced back to where it began): its
+  // walk was blocked next to the first vertex, which the walk may not snap onto (or its
+  // last point snapped onto it as the stroke ended), with the tip and the blade's point
+  // within the matching radius of it after a path of more than 4 times that radius.
+  // Where the tip and the first vertex share an edge of uncut surface, the cut opens
+  // along that edge: the groove closes into a ring (nothing comes free: its bottom
+  // holds) and the track ends. Else false: nothing was edited, or the step only grew
+  // the front onto the first vertex (extend's deferral), and the caller goes on as it
+  // would have (a walk failure, or the stroke's end).
+  bool closeOnStart(Track& tr, const Vec3& point) {
+    if (tr.partner >= 0 || tr.tunnel || !closedObject(tr.object)) return false;
+    SurfaceMesh& m = meshOf(tr.object);
+    const Vertex first = tr.first;
+    if (!m.isValid(first) || tr.tip == first) return false;
+    const Vec3 pf = m.position(first), from = m.position(tr.tip);
+    if ((from - pf).norm() > p.matchRadius || (point - pf).norm() > p.matchRadius ||
+        tr.pathLength < 4.0 * p.matchRadius)
+      return false;
+    const Edge e = m.findEdge(tr.tip, first);
+    const auto kind = kindsIn(m);
+    if (!e.isValid() || !kind) return false;
+    for (int k = 0; k < 2; ++k)
+      if (const Face f = m.face(e, k); !f.isValid() || kind[f] != kSurface) return false;
+    // The groove's depth below the tip, carried to the start.
+    const Vertex v = tr.tip;
+    extend(tr, first, Vec3(pf + (tr.tipDepth - from)), true);
+    // Opened: a wall face now borders the last edge (extend may instead grow the front).
+    bool opened = false;
+    if (const Edge last = m.findEdge(v, first); tr.tip == first && last.isValid())
+      for (int k = 0; k < 2; ++k)
+        if (const Face f = m.face(last, k); f.isValid() && kindsIn(m)[f] != kSurface) opened = true;
+    if (!opened) return false;
+    if (dbg()) std::cerr << "advance: track " << tr.id << " closes on its start\n";
+    ++stats.startsClosed;
+    openStart(tr, first, Vec3(pf + (tr.tipDepth - from)));
+    end(tr);
+    return true;
+  }
+
+  // After a groove closed on its start, the first vertex still joins the ring's two lips
+  // (the groove began there, at the surface): a pinch in the ring. It opens as a step of
+  // the groove does: split between the start's walls and the closing step's, the hole
+  // closed with four wall triangles round a bottom vertex at `depth`. Only where each of
+  // the two wall groups meets it in exactly one edge between walls (their bottoms) and
+  // no new triangle is thinner than a fill's threshold; else the pinch stays.
+  void openStart(Track& tr, Vertex F, const Vec3& depth) {
+    SurfaceMesh& m = meshOf(tr.object);
+    const auto kind = kindsIn(m);
+    if (!kind || !depth.allFinite()) return;
+    std::vector<Edge> bottoms;
+    for (Edge e : m.edges(F)) {
+      const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
+      if (f0.isValid() && f1.isValid() && kind[f0] != kSurface && kind[f1] != kSurface) bottoms.push_back(e);
+    }
+    if (bottoms.size() != 2) return;
+    const Vertex b = m.otherVertex(bottoms[0], F), a = m.otherVertex(bottoms[1], F);
+    const Vec3 pF = m.position(F);
+    if (a == b || std::min(height(pF, m.position(b), depth), height(pF, m.position(a), depth)) < 0.5 * p.snapDistance)
+      return;
+    // Two groups, each with surface (a lip of the ring): the inner and the outer side.
+    if (fanLabels(m, F, bottoms) != 2) return;
+    for (int g = 0; g < 2; ++g) {
+      bool lip = false;
+      for (Face f : fanOf(g)) lip = lip || kind[f] == kSurface;
+      if (!lip) return;
+    }
+    const std::vector<Vertex> made = splitByGroups(tr.object, F, bottoms);
+    if (made.size() != 1) return;  // (two groups: one copy)
+    const Vertex F2 = made.front();
+    const Vertex B = fillQuad(tr.object, F, b, F2, a, true, depth, kGrooveWall);
+    if (!B.isValid()) {
+      if (!fillHoleAt(tr.object, F, kGrooveWall)) ++stats.fillFailures;
+      touchEach(tr.object, std::array<Vertex, 4>{F, F2, a, b});
+      return;
+    }
+    mark(tr, F2);
+    mark(tr, B);
+    if (dbg()) std::cerr << "openStart: " << F << " opens round a bottom vertex at " << depth.transpose() << "\n";
+    ++stats.startsOpened;
+    const std::array<Vertex, 5> touched{F, F2, B, a, b};
+    touchEach(tr.object, touched);
+    for (Vertex x : touched) unpinch(tr.object, x);
   }
 
   // On still tissue: the walk's first step was blocked by the cut's own last edge (its
@@ -2950,6 +3041,9 @@ struct CutEngine::Impl {
         }
       }
     }
+    // A groove ending where it began, after going round: it closes into a ring there.
+    if (tr.alive && tr.tip.isValid())
+      (void)closeOnStart(tr, tr.hasPending ? tr.pending : meshOf(tr.object).position(tr.tip));
     if (unpair) {
       end(tr);
     } else {

@@ -59,7 +59,7 @@ struct Quality {
 };
 Quality g_seen;
 long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0,
-     g_refused = 0;
+     g_refused = 0, g_closed = 0, g_opened = 0;
 std::array<long, kWalkEnds> g_failuresBy{};
 
 // " (no_way 2, blocked 1)": the walk failures by how the walk ended (empty if none).
@@ -78,9 +78,10 @@ void seedStats(unsigned seed, const CutEngine& e) {
   if (!on) return;
   const CutStats& st = e.stats();
   std::fprintf(stderr,
-               "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu%s\n", seed,
-               st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
-               e.objects().size(), failureEnds(st.walkFailuresBy).c_str());
+               "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu%s%s\n",
+               seed, st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
+               e.objects().size(), failureEnds(st.walkFailuresBy).c_str(),
+               st.startsClosed > 0 ? (" closed " + std::to_string(st.startsClosed)).c_str() : "");
 }
 
 // Adds a finished seed's counts to the run's (and prints its line: seedStats).
@@ -102,13 +103,16 @@ void tally(unsigned seed, const CutEngine& e) {
   g_ways += st.waysChosen;
   g_pierced += st.pairsPierced;
   g_refused += st.cutOutsRefused;
+  g_closed += st.startsClosed;
+  g_opened += st.startsOpened;
   g_trianglesCut += st.trianglesCut;
   seedStats(seed, e);
 }
 
 void resetSeen() {
   g_seen = Quality{};
-  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = g_refused = 0;
+  g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = g_refused = g_closed =
+      g_opened = 0;
   g_failuresBy.fill(0);
 }
 
@@ -118,7 +122,9 @@ std::string seenText() {
          " deg; checks with a triangle under the floor: " + std::to_string(g_thin) + " of " + std::to_string(g_checks) +
          ", walk failures " + std::to_string(g_walkFailures) + failureEnds(g_failuresBy) + ", lip stops " +
          std::to_string(g_lipStops) + ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " +
-         std::to_string(g_pierced) + ", cut-outs refused " + std::to_string(g_refused);
+         std::to_string(g_pierced) + ", cut-outs refused " + std::to_string(g_refused) +
+         ", grooves closed on their start " + std::to_string(g_closed) + " (opened there " + std::to_string(g_opened) +
+         ")";
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
@@ -1222,6 +1228,26 @@ TEST(CutterPropertySeeds, Disc3227LayerWaitsOnAnEarlierWallAndFreesThePiece) {
 }
 TEST(CutterPropertySeeds, Cylinder4664LayerWaitsOnAnEarlierWallAndFreesThePiece) {
   expectSeedWaitsOnAnEarlierWallAndFrees(3, 4664);
+}
+
+// A groove over the disc's rim comes back within the matching radius of its first
+// vertex (after 9.3 mm of path), its walk blocked next to that vertex: it closes on its
+// start instead (one walk failure before, and a new track started at the blade).
+TEST(CutterPropertySeeds, Disc5825GrooveComingBackToItsStartClosesThere) {
+  const std::size_t left = runFrozenSeed(2, 5825);
+  EXPECT_EQ(g_closed, 1);
+  EXPECT_EQ(g_walkFailures, 0);
+  EXPECT_EQ(left, 1u);
+}
+// A deepening stroke's groove on the cylinder ends 0.9 mm from where it began after
+// going down and back up: it closes on its start as the stroke ends, and the start
+// vertex opens round a bottom vertex (the groove is one ring, no pinch).
+TEST(CutterPropertySeeds, CylinderDeepen23928GrooveEndingNextToItsStartClosesAndOpensIt) {
+  resetSeen();
+  EXPECT_EQ(runDeepenSeed(shapes()[3], 23928), "");
+  EXPECT_EQ(g_closed, 1);
+  EXPECT_EQ(g_opened, 1);
+  EXPECT_EQ(g_walkFailures, 0);
 }
 
 // Replays one seed: LD_CUT_SEED=<shape index>:<seed> (seeds from 20000: deepening strokes),

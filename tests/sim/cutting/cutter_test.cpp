@@ -152,6 +152,65 @@ TEST(Cutter, GrooveBottomSlidesOnUnderTheBlade) {
 // A hand lifted with the blade's crossings within a few snapping distances of the side
 // it was leaving over cuts out there (the piece comes free); lifted farther inside, or
 // just after coming in over a side, it leaves the cut open.
+// Components of the top surface's faces (uncut surface facing +z), joined across their
+// edges: a groove that goes all round a loop parts the top in two.
+int topSurfacePieces(const mesh::SurfaceMesh& m) {
+  auto kind = m.getFaceProperty<int>(kFaceKindProp);
+  auto top = [&](mesh::Face f) {
+    const auto& v = m.vertices(f);
+    const Vec3 n = (m.position(v[1]) - m.position(v[0])).cross(m.position(v[2]) - m.position(v[0]));
+    return kind[f] == kSurface && n.z() > 0.9 * n.norm();
+  };
+  std::vector<int> seen(m.facesSize(), 0);
+  int pieces = 0;
+  for (auto f0 : m.faces()) {
+    if (!top(f0) || seen[f0.idx()]) continue;
+    ++pieces;
+    std::vector<mesh::Face> todo{f0};
+    seen[f0.idx()] = 1;
+    while (!todo.empty()) {
+      const mesh::Face f = todo.back();
+      todo.pop_back();
+      for (int k = 0; k < 3; ++k) {
+        const auto& v = m.vertices(f);
+        const mesh::Face g = m.otherFace(m.findEdge(v[k], v[(k + 1) % 3]), f);
+        if (g.isValid() && !seen[g.idx()] && top(g)) {
+          seen[g.idx()] = 1;
+          todo.push_back(g);
+        }
+      }
+    }
+  }
+  return pieces;
+}
+
+// A groove traced round a circle back to where it began (or on over its start): the
+// last stretch opens into the groove's first vertex, so the groove is a closed ring (the
+// top parts in two, nothing comes free: the bottom holds), with no walk failure.
+TEST(Cutter, GrooveRoundACircleClosesOnItsStart) {
+  for (const int extra : {0, 3}) {
+    SCOPED_TRACE(extra);
+    CutEngine e;
+    e.addObject(slab());
+    ASSERT_EQ(topSurfacePieces(e.objects()[0].mesh), 1);
+    std::vector<Vec3> pts;
+    const int n = 72;
+    for (int i = 0; i <= n + extra; ++i) {
+      const double a = 2.0 * M_PI * i / n;
+      pts.emplace_back(5.0 + 2.5 * std::cos(a), 5.1 + 2.5 * std::sin(a), 1.2);
+    }
+    test::polyStroke(e, pts, Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+    ASSERT_EQ(e.objects().size(), 1u);
+    const auto& m = e.objects()[0].mesh;
+    EXPECT_EQ(e.stats().walkFailures, 0);
+    EXPECT_EQ(e.stats().fillFailures, 0);
+    EXPECT_EQ(e.stats().startsClosed, 1);
+    EXPECT_EQ(e.stats().startsOpened, 1) << "the ring keeps a pinch at its start";
+    EXPECT_EQ(topSurfacePieces(m), 2) << "a bridge of uncut surface is left across the ring";
+    EXPECT_EQ(facesOfKind(m, kSideWall), 0);
+  }
+}
+
 TEST(Cutter, StrokeLiftedAsTheBladeLeavesOverASideFreesThePiece) {
   for (const double endX : {9.96, 9.9}) {
     CutEngine e;
