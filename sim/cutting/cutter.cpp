@@ -2909,9 +2909,11 @@ struct CutEngine::Impl {
     if (!e.isValid() || !kind) return false;
     for (int k = 0; k < 2; ++k)
       if (const Face f = m.face(e, k); !f.isValid() || kind[f] != kSurface) return false;
-    // The groove's depth below the tip, carried to the start.
+    // The groove's depth below the tip, carried to the start (read before extend moves
+    // the tip and its depth there).
+    const Vec3 depth = pf + (tr.tipDepth - from);
     const Vertex v = tr.tip;
-    extend(tr, first, Vec3(pf + (tr.tipDepth - from)), true);
+    extend(tr, first, depth, true);
     // Opened: a wall face now borders the last edge (extend may instead grow the front).
     bool opened = false;
     if (const Edge last = m.findEdge(v, first); tr.tip == first && last.isValid())
@@ -2920,7 +2922,7 @@ struct CutEngine::Impl {
     if (!opened) return false;
     if (dbg()) std::cerr << "advance: track " << tr.id << " closes on its start\n";
     ++stats.startsClosed;
-    openStart(tr, first, Vec3(pf + (tr.tipDepth - from)));
+    openStart(tr, first, depth);
     end(tr);
     return true;
   }
@@ -2928,9 +2930,10 @@ struct CutEngine::Impl {
   // After a groove closed on its start, the first vertex still joins the ring's two lips
   // (the groove began there, at the surface): a pinch in the ring. It opens as a step of
   // the groove does: split between the start's walls and the closing step's, the hole
-  // closed with four wall triangles round a bottom vertex at `depth`. Only where each of
-  // the two wall groups meets it in exactly one edge between walls (their bottoms) and
-  // no new triangle is thinner than a fill's threshold; else the pinch stays.
+  // closed with four wall triangles round a new bottom vertex at `depth`, or two round
+  // the closing step's bottom vertex, whichever is thicker. Only where each of the two
+  // wall groups meets it in exactly one edge between walls (their bottoms) and no new
+  // triangle is thinner than a fill's threshold; else the pinch stays.
   void openStart(Track& tr, Vertex F, const Vec3& depth) {
     SurfaceMesh& m = meshOf(tr.object);
     const auto kind = kindsIn(m);
@@ -2942,9 +2945,15 @@ struct CutEngine::Impl {
     }
     if (bottoms.size() != 2) return;
     const Vertex b = m.otherVertex(bottoms[0], F), a = m.otherVertex(bottoms[1], F);
-    const Vec3 pF = m.position(F);
-    if (a == b || std::min(height(pF, m.position(b), depth), height(pF, m.position(a), depth)) < 0.5 * p.snapDistance)
-      return;
+    if (a == b) return;
+    // As extend chooses: a new bottom vertex at `depth`, or (when the closing step's own
+    // bottom vertex is already there, or the blade is shallow) the two triangles round
+    // one of the bottoms.
+    const Vec3 pF = m.position(F), pa = m.position(a), pb = m.position(b);
+    const double qApex = std::min(height(pF, pb, depth), height(pF, pa, depth));
+    const double qFan = m.findEdge(a, b).isValid() ? -1.0 : height(pF, pb, pa);
+    if (std::max(qApex, qFan) < 0.5 * p.snapDistance) return;
+    const bool newApex = qApex >= qFan;
     // Two groups, each with surface (a lip of the ring): the inner and the outer side.
     if (fanLabels(m, F, bottoms) != 2) return;
     for (int g = 0; g < 2; ++g) {
@@ -2955,7 +2964,7 @@ struct CutEngine::Impl {
     const std::vector<Vertex> made = splitByGroups(tr.object, F, bottoms);
     if (made.size() != 1) return;  // (two groups: one copy)
     const Vertex F2 = made.front();
-    const Vertex B = fillQuad(tr.object, F, b, F2, a, true, depth, kGrooveWall);
+    const Vertex B = fillQuad(tr.object, F, b, F2, a, newApex, depth, kGrooveWall);
     if (!B.isValid()) {
       if (!fillHoleAt(tr.object, F, kGrooveWall)) ++stats.fillFailures;
       touchEach(tr.object, std::array<Vertex, 4>{F, F2, a, b});
@@ -2963,7 +2972,7 @@ struct CutEngine::Impl {
     }
     mark(tr, F2);
     mark(tr, B);
-    if (dbg()) std::cerr << "openStart: " << F << " opens round a bottom vertex at " << depth.transpose() << "\n";
+    if (dbg()) std::cerr << "openStart: " << F << " opens round " << m.position(B).transpose() << "\n";
     ++stats.startsOpened;
     const std::array<Vertex, 5> touched{F, F2, B, a, b};
     touchEach(tr.object, touched);

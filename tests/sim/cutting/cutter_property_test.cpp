@@ -1241,7 +1241,9 @@ TEST(CutterPropertySeeds, Disc5825GrooveComingBackToItsStartClosesThere) {
 }
 // A deepening stroke's groove on the cylinder ends 0.9 mm from where it began after
 // going down and back up: it closes on its start as the stroke ends, and the start
-// vertex opens round a bottom vertex (the groove is one ring, no pinch).
+// vertex opens (the groove is one ring, no pinch). The blade ends 0.03 mm deep: a new
+// bottom vertex under the start would be a sliver, so the opening's two triangles go
+// round the closing step's bottom vertex.
 TEST(CutterPropertySeeds, CylinderDeepen23928GrooveEndingNextToItsStartClosesAndOpensIt) {
   resetSeen();
   EXPECT_EQ(runDeepenSeed(shapes()[3], 23928), "");

@@ -208,6 +208,18 @@ TEST(Cutter, GrooveRoundACircleClosesOnItsStart) {
     EXPECT_EQ(e.stats().startsOpened, 1) << "the ring keeps a pinch at its start";
     EXPECT_EQ(topSurfacePieces(m), 2) << "a bridge of uncut surface is left across the ring";
     EXPECT_EQ(facesOfKind(m, kSideWall), 0);
+    // Every groove-bottom vertex, the start's included, lies on the blade's path (the
+    // 72-gon: radius 2.5 cos(pi / 72) to 2.5) at its depth.
+    int bottoms = 0;
+    for (auto v : m.vertices()) {
+      const Vec3 q = m.position(v);
+      if (q.z() > 1.99 || q.z() < 0.01 || q.x() < 0.01 || q.x() > 9.99 || q.y() < 0.01 || q.y() > 9.99) continue;
+      ++bottoms;
+      EXPECT_NEAR(q.z(), 1.2, 1e-9);
+      const double r = std::hypot(q.x() - 5.0, q.y() - 5.1);
+      EXPECT_TRUE(r > 2.5 * std::cos(M_PI / 72) - 1e-6 && r < 2.5 + 1e-6) << q.transpose();
+    }
+    EXPECT_GT(bottoms, 4);
   }
 }
 
