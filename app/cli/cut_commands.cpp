@@ -173,6 +173,7 @@ int cut(const Args& args) {
     if (st.walkFailuresBy[k] > 0)
       j["walk_failures_by"][cutting::walkEndName(static_cast<cutting::WalkEnd>(k))] = st.walkFailuresBy[k];
   j["lip_stops"] = st.lipStops;
+  j["starts_merged"] = st.startsMerged;  // tracks that ran into an earlier cut at their start (not failures)
   j["starts_closed"] = st.startsClosed;  // grooves come round to their start and closed into a ring
   j["fill_failures"] = st.fillFailures;
   j["physics"] = physicsMode;

@@ -2874,6 +2874,14 @@ struct CutEngine::Impl {
       if (const SurfaceMesh& mb0 = meshOf(tr.object); w.end == WalkEnd::Blocked && mb0.isValid(w.blockedAt) &&
                                                       w.blockedAtEnd(mb0, tr.first) && closeOnStart(tr, h.point))
         return;  // (the hit is at the start: taken)
+      if (mergesAtStart(tr, w, h)) {
+        if (dbg()) std::cerr << "advance: track " << tr.id << " runs into an earlier cut at its start\n";
+        ++stats.startsMerged;
+        tr.hasPending = false;
+        end(tr);
+        h.used = false;
+        return;
+      }
       countWalkFailure(w.end);
       tr.hasPending = false;
       if (!movedSincePrev && w.end == WalkEnd::Blocked) backPastStart(tr, w, h);
@@ -2884,6 +2892,19 @@ struct CutEngine::Impl {
     tr.pending = h.point;
     tr.pendingDepth = h.depth;
     tr.hasPending = true;
+  }
+
+  // A groove still within the matching radius of its start whose walk was blocked next to
+  // its first vertex, the blade's point on a wall of another cut: the blade went into an
+  // earlier cut right after it began (an L-hook's back edge starting beside its front
+  // edge's groove, which the blade then follows). What the track would cut is cut; it ends
+  // as a lip stop does, not as a walk failure, and the edits are the same.
+  bool mergesAtStart(const Track& tr, const WalkResult& w, const Hit& h) const {
+    if (w.end != WalkEnd::Blocked || tr.partner >= 0 || tr.tunnel || !(tr.pathLength < p.matchRadius)) return false;
+    const SurfaceMesh& m = objects[static_cast<std::size_t>(indexOf(tr.object))].mesh;
+    const auto kind = kindsIn(m);
+    return kind && m.isValid(w.blockedAt) && w.blockedAtEnd(m, tr.first) && m.isValid(h.face) &&
+           kind[h.face] != kSurface && cornersOnCut(m, tr, h.face) < 3;
   }
 
   // A groove come round to its own start (a circle traced back to where it began): its

@@ -162,6 +162,7 @@ struct CutStats {
   long cutOutsRefused = 0;         // cut-outs whose way to the other layer's tip misses it: both end there, unedited
   long startsClosed = 0;           // grooves come round to their own start and closed into a ring there
   long startsOpened = 0;           // of those, the ones whose start vertex then opened (no pinch in the ring)
+  long startsMerged = 0;           // grooves blocked at their start by an earlier cut the blade went into: ended there
   long holds = 0;                  // track samples that waited: the blade was behind the moved tip
   long fillFailures = 0;           // an opening could not be closed (should stay 0)
   long unpinched = 0;              // pinched vertices split (safety net)

@@ -116,12 +116,13 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
   EXPECT_EQ(a["lip_stops"], 0);
 }
 
-// The circle task's scripted stroke, as the CLI replays it: the walk failures it reports
-// are listed by how their walk ended, none of them an end that does not fail a track.
 // The bundled circle task traced at level 0: its groove comes round to where it began
 // and closes into a ring there, physics off and on, with no walk failure (it used to
 // stop 1.3 mm short, blocked next to its own start). On the organ fold (physics on) the
-// walk failures, if any, are listed by how the walk ended and add up.
+// hook's two edges start beside each other and the second runs into the first one's
+// groove 0.2 mm on: one track ended as run into an earlier cut (starts_merged), which
+// used to be the run's one walk failure; the walk failures, if any, are listed by how
+// the walk ended and add up.
 TEST(CutCli, CircleTaskGrooveClosesOnItsStartAndFailuresAreListedByEnd) {
   const fs::path res = ld::test::resourcesDir();
   TempDir d;
@@ -145,6 +146,9 @@ TEST(CutCli, CircleTaskGrooveClosesOnItsStartAndFailuresAreListedByEnd) {
   const auto fold = script("organ-fold");
   const auto j = run("cut --mesh " + shellQuote((res / "models" / "organ.obj").string()) + " --trajectory " +
                      shellQuote(fold.string()) + " --physics on");
+  EXPECT_EQ(j["starts_merged"].get<long>(), 1);
+  EXPECT_EQ(j["walk_failures"].get<long>(), 0) << j["walk_failures_by"].dump();
+  EXPECT_EQ(j["objects"].get<long>(), 1);
   ASSERT_TRUE(j["walk_failures_by"].is_object());
   long sum = 0;
   for (const auto& [end, n] : j["walk_failures_by"].items()) {

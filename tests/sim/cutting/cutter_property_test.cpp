@@ -59,7 +59,7 @@ struct Quality {
 };
 Quality g_seen;
 long g_thin = 0, g_checks = 0, g_walkFailures = 0, g_lipStops = 0, g_trianglesCut = 0, g_ways = 0, g_pierced = 0,
-     g_refused = 0, g_closed = 0, g_opened = 0;
+     g_refused = 0, g_closed = 0, g_opened = 0, g_merged = 0;
 std::array<long, kWalkEnds> g_failuresBy{};
 
 // " (no_way 2, blocked 1)": the walk failures by how the walk ended (empty if none).
@@ -78,10 +78,11 @@ void seedStats(unsigned seed, const CutEngine& e) {
   if (!on) return;
   const CutStats& st = e.stats();
   std::fprintf(stderr,
-               "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu%s%s\n",
+               "seed %u walk failures %ld lip stops %ld ways %ld pierced %ld refused %ld cut %ld objects %zu%s%s%s\n",
                seed, st.walkFailures, st.lipStops, st.waysChosen, st.pairsPierced, st.cutOutsRefused, st.trianglesCut,
                e.objects().size(), failureEnds(st.walkFailuresBy).c_str(),
-               st.startsClosed > 0 ? (" closed " + std::to_string(st.startsClosed)).c_str() : "");
+               st.startsClosed > 0 ? (" closed " + std::to_string(st.startsClosed)).c_str() : "",
+               st.startsMerged > 0 ? (" merged " + std::to_string(st.startsMerged)).c_str() : "");
 }
 
 // Adds a finished seed's counts to the run's (and prints its line: seedStats).
@@ -105,6 +106,7 @@ void tally(unsigned seed, const CutEngine& e) {
   g_refused += st.cutOutsRefused;
   g_closed += st.startsClosed;
   g_opened += st.startsOpened;
+  g_merged += st.startsMerged;
   g_trianglesCut += st.trianglesCut;
   seedStats(seed, e);
 }
@@ -112,7 +114,7 @@ void tally(unsigned seed, const CutEngine& e) {
 void resetSeen() {
   g_seen = Quality{};
   g_thin = g_checks = g_walkFailures = g_lipStops = g_trianglesCut = g_ways = g_pierced = g_refused = g_closed =
-      g_opened = 0;
+      g_opened = g_merged = 0;
   g_failuresBy.fill(0);
 }
 
@@ -124,7 +126,7 @@ std::string seenText() {
          std::to_string(g_lipStops) + ", ways chosen " + std::to_string(g_ways) + ", pairs pierced " +
          std::to_string(g_pierced) + ", cut-outs refused " + std::to_string(g_refused) +
          ", grooves closed on their start " + std::to_string(g_closed) + " (opened there " + std::to_string(g_opened) +
-         ")";
+         "), tracks run into an earlier cut at their start " + std::to_string(g_merged);
 }
 
 // Smallest height (what snapping keeps away from zero), area and angle of any triangle.
