@@ -175,6 +175,7 @@ int cut(const Args& args) {
   j["lip_stops"] = st.lipStops;
   j["starts_merged"] = st.startsMerged;  // tracks that ran into an earlier cut at their start (not failures)
   j["starts_closed"] = st.startsClosed;  // grooves come round to their start and closed into a ring
+  j["starts_opened"] = st.startsOpened;  // of those, the ones whose start then opened (no pinch in the ring)
   j["fill_failures"] = st.fillFailures;
   j["physics"] = physicsMode;
   j["active_region"] = regionMode;

@@ -2964,6 +2964,42 @@ struct CutEngine::Impl {
       const Face f0 = m.face(e, 0), f1 = m.face(e, 1);
       if (f0.isValid() && f1.isValid() && kind[f0] != kSurface && kind[f1] != kSurface) bottoms.push_back(e);
     }
+    if (bottoms.size() > 2) {
+      // More edges between walls meet at the start: other cuts began there too (an
+      // L-hook's first sample cuts a slit with its foot beside the shaft's groove). The
+      // ring's own two are the closing step's (its walls reach the last tip or its copy)
+      // and the deepest other one of this groove below the surface round F; the rest
+      // (another cut's bottom, or the top of a wall strip left between two cuts along one
+      // line) stays with whichever side it is on.
+      Vec3 n = Vec3::Zero();
+      for (Face f : m.faces(F))
+        if (kind[f] == kSurface) n += rawNormal(m, f).normalized();
+      if (!(n.norm() > 0.0)) return;
+      n.normalize();
+      auto atLastTip = [&](Edge e) {
+        for (int k = 0; k < 2; ++k)
+          for (Vertex x : m.vertices(m.face(e, k)))
+            if (x.isValid() && (x == tr.prevTip || x == tr.prevTipCopy)) return true;
+        return false;
+      };
+      Edge closing, start;
+      double deepest = p.snapDistance;
+      for (Edge e : bottoms) {
+        const Vertex x = m.otherVertex(e, F);
+        if (atLastTip(e)) {
+          if (closing.isValid()) return;  // (two: not told apart)
+          closing = e;
+        } else if (const double below = n.dot(m.position(F) - m.position(x)); tr.visited.count(x) && below > deepest) {
+          deepest = below;
+          start = e;
+        }
+      }
+      if (dbg())
+        std::cerr << "openStart: " << bottoms.size() << " bottoms at the start, this groove's found "
+                  << closing.isValid() << start.isValid() << "\n";
+      if (!closing.isValid() || !start.isValid()) return;
+      bottoms.assign({closing, start});
+    }
     if (bottoms.size() != 2) return;
     const Vertex b = m.otherVertex(bottoms[0], F), a = m.otherVertex(bottoms[1], F);
     if (a == b) return;

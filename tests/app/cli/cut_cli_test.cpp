@@ -118,7 +118,7 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
 
 // The bundled circle task traced at level 0: its groove comes round to where it began
 // and closes into a ring there, physics off and on, with no walk failure (it used to
-// stop 1.3 mm short, blocked next to its own start). On the organ fold (physics on) the
+// stop 1.3 mm short, blocked next to its own start), and its start opens (no pinch). On the organ fold (physics on) the
 // hook's two edges start beside each other and the second runs into the first one's
 // groove 0.2 mm on: one track ended as run into an earlier cut (starts_merged), which
 // used to be the run's one walk failure; the walk failures, if any, are listed by how
@@ -140,6 +140,9 @@ TEST(CutCli, CircleTaskGrooveClosesOnItsStartAndFailuresAreListedByEnd) {
     const auto j = run("cut --mesh " + shellQuote((res / "models" / "tissue_slab.obj").string()) + " --trajectory " +
                        shellQuote(circle.string()) + " --physics " + physics);
     EXPECT_EQ(j["starts_closed"].get<long>(), 1);
+    // Its start opens too, though the hook's foot cut a slit beside the groove there as
+    // it went in (more than two edges between walls meet at the start).
+    EXPECT_EQ(j["starts_opened"].get<long>(), 1);
     EXPECT_EQ(j["walk_failures"].get<long>(), 0) << j["walk_failures_by"].dump();
     EXPECT_EQ(j["objects"].get<long>(), 1) << "a groove frees nothing";
   }

@@ -1234,10 +1234,14 @@ TEST(CutterPropertySeeds, Cylinder4664LayerWaitsOnAnEarlierWallAndFreesThePiece)
 
 // A groove over the disc's rim comes back within the matching radius of its first
 // vertex (after 9.3 mm of path), its walk blocked next to that vertex: it closes on its
-// start instead (one walk failure before, and a new track started at the blade).
+// start instead (one walk failure before, and a new track started at the blade). Four
+// edges between walls meet at the start (the stroke's first sample started two grooves
+// there); the ring's own two are found among them and the start opens (it kept its
+// pinch while openStart took only starts with exactly two).
 TEST(CutterPropertySeeds, Disc5825GrooveComingBackToItsStartClosesThere) {
   const std::size_t left = runFrozenSeed(2, 5825);
   EXPECT_EQ(g_closed, 1);
+  EXPECT_EQ(g_opened, 1);
   EXPECT_EQ(g_walkFailures, 0);
   EXPECT_EQ(left, 1u);
 }

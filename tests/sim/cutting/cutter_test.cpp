@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <numeric>
+
 #include "sim/cutting/mesh_checks.h"
 #include "sim/physics/mass_spring.h"
 #include "sim/physics/tissue_properties.h"
@@ -152,15 +155,17 @@ TEST(Cutter, GrooveBottomSlidesOnUnderTheBlade) {
 // A hand lifted with the blade's crossings within a few snapping distances of the side
 // it was leaving over cuts out there (the piece comes free); lifted farther inside, or
 // just after coming in over a side, it leaves the cut open.
-// Components of the top surface's faces (uncut surface facing +z), joined across their
+// Uncut surface facing +z.
+bool isTopSurface(const mesh::SurfaceMesh& m, mesh::Face f) {
+  const auto& v = m.vertices(f);
+  const Vec3 n = (m.position(v[1]) - m.position(v[0])).cross(m.position(v[2]) - m.position(v[0]));
+  return m.getFaceProperty<int>(kFaceKindProp)[f] == kSurface && n.z() > 0.9 * n.norm();
+}
+
+// Components of the top surface's faces (isTopSurface), joined across their
 // edges: a groove that goes all round a loop parts the top in two.
 int topSurfacePieces(const mesh::SurfaceMesh& m) {
-  auto kind = m.getFaceProperty<int>(kFaceKindProp);
-  auto top = [&](mesh::Face f) {
-    const auto& v = m.vertices(f);
-    const Vec3 n = (m.position(v[1]) - m.position(v[0])).cross(m.position(v[2]) - m.position(v[0]));
-    return kind[f] == kSurface && n.z() > 0.9 * n.norm();
-  };
+  auto top = [&](mesh::Face f) { return isTopSurface(m, f); };
   std::vector<int> seen(m.facesSize(), 0);
   int pieces = 0;
   for (auto f0 : m.faces()) {
@@ -184,6 +189,60 @@ int topSurfacePieces(const mesh::SurfaceMesh& m) {
   return pieces;
 }
 
+// Vertices where faces of two different top-surface pieces (topSurfacePieces) meet: a
+// ring's two lips pinched together there.
+int topSurfacePinches(const mesh::SurfaceMesh& m) {
+  auto top = [&](mesh::Face f) { return isTopSurface(m, f); };
+  // Pieces by union-find over the top faces' shared edges.
+  std::vector<std::size_t> parent(m.facesSize());
+  std::iota(parent.begin(), parent.end(), std::size_t{0});
+  auto find = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (auto f : m.faces()) {
+    if (!top(f)) continue;
+    const auto& v = m.vertices(f);
+    for (int k = 0; k < 3; ++k)
+      if (const mesh::Face g = m.otherFace(m.findEdge(v[k], v[(k + 1) % 3]), f); g.isValid() && top(g))
+        parent[find(f.idx())] = find(g.idx());
+  }
+  int pinches = 0;
+  for (auto v : m.vertices()) {
+    std::size_t piece = SIZE_MAX;
+    bool two = false;
+    for (auto f : m.faces(v)) {
+      if (!top(f)) continue;
+      const std::size_t r = find(f.idx());
+      two = two || (piece != SIZE_MAX && r != piece);
+      piece = r;
+    }
+    pinches += two ? 1 : 0;
+  }
+  return pinches;
+}
+
+// A groove 0.8 mm deep traced round the circle of radius 2.5 about (5, 5.1) on the
+// slab (a 72-gon from (7.5, 5.1), `extra` samples past its start), then checked: one
+// closed ring with its start opened, no walk failure.
+void traceGrooveRing(CutEngine& e, int extra) {
+  std::vector<Vec3> pts;
+  const int n = 72;
+  for (int i = 0; i <= n + extra; ++i) {
+    const double a = 2.0 * M_PI * i / n;
+    pts.emplace_back(5.0 + 2.5 * std::cos(a), 5.1 + 2.5 * std::sin(a), 1.2);
+  }
+  test::polyStroke(e, pts, Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
+  ASSERT_EQ(e.objects().size(), 1u);
+  const auto& m = e.objects()[0].mesh;
+  EXPECT_EQ(e.stats().walkFailures, 0);
+  EXPECT_EQ(e.stats().fillFailures, 0);
+  EXPECT_EQ(e.stats().startsClosed, 1);
+  EXPECT_EQ(e.stats().startsOpened, 1) << "the ring keeps a pinch at its start";
+  EXPECT_EQ(topSurfacePieces(m), 2) << "a bridge of uncut surface is left across the ring";
+  EXPECT_EQ(topSurfacePinches(m), 0);
+}
+
 // A groove traced round a circle back to where it began (or on over its start): the
 // last stretch opens into the groove's first vertex, so the groove is a closed ring (the
 // top parts in two, nothing comes free: the bottom holds), with no walk failure.
@@ -193,20 +252,9 @@ TEST(Cutter, GrooveRoundACircleClosesOnItsStart) {
     CutEngine e;
     e.addObject(slab());
     ASSERT_EQ(topSurfacePieces(e.objects()[0].mesh), 1);
-    std::vector<Vec3> pts;
-    const int n = 72;
-    for (int i = 0; i <= n + extra; ++i) {
-      const double a = 2.0 * M_PI * i / n;
-      pts.emplace_back(5.0 + 2.5 * std::cos(a), 5.1 + 2.5 * std::sin(a), 1.2);
-    }
-    test::polyStroke(e, pts, Vec3(0, 0, -1), 20.0, 1000.0, soundEveryStep(true));
-    ASSERT_EQ(e.objects().size(), 1u);
+    traceGrooveRing(e, extra);
+    if (HasFatalFailure()) return;
     const auto& m = e.objects()[0].mesh;
-    EXPECT_EQ(e.stats().walkFailures, 0);
-    EXPECT_EQ(e.stats().fillFailures, 0);
-    EXPECT_EQ(e.stats().startsClosed, 1);
-    EXPECT_EQ(e.stats().startsOpened, 1) << "the ring keeps a pinch at its start";
-    EXPECT_EQ(topSurfacePieces(m), 2) << "a bridge of uncut surface is left across the ring";
     EXPECT_EQ(facesOfKind(m, kSideWall), 0);
     // Every groove-bottom vertex, the start's included, lies on the blade's path (the
     // 72-gon: radius 2.5 cos(pi / 72) to 2.5) at its depth.
@@ -220,6 +268,31 @@ TEST(Cutter, GrooveRoundACircleClosesOnItsStart) {
       EXPECT_TRUE(r > 2.5 * std::cos(M_PI / 72) - 1e-6 && r < 2.5 + 1e-6) << q.transpose();
     }
     EXPECT_GT(bottoms, 4);
+  }
+}
+
+// The same ring begun where another groove began (a stub cut outward from the ring's
+// start by an earlier stroke, as an L-hook's foot cuts a slit beside the shaft's groove
+// when it goes in): more than two edges between walls meet at the start. The ring's own
+// two (the closing step's and its first step's) are found among them and the start
+// opens; the stub stays on the outer side. Without the stub the start meets exactly two.
+TEST(Cutter, GrooveRoundACircleOpensItsStartWhereAnotherCutBeganThere) {
+  for (const bool stub : {false, true}) {
+    SCOPED_TRACE(stub);
+    CutEngine e;
+    e.addObject(slab());
+    const Vec3 start(7.5, 5.1, 1.2);
+    if (stub) test::stroke(e, start + Vec3(0, 0, 0.4), Vec3(9.0, 5.1, 1.6), Vec3(0, 0, -1), 20.0, 1000.0);
+    traceGrooveRing(e, 0);
+    if (HasFatalFailure()) return;
+    const auto& m = e.objects()[0].mesh;
+    // The stub's groove is still there, on the outer side: its walls reach x = 9.
+    auto kind = m.getFaceProperty<int>(kFaceKindProp);
+    double reach = 0.0;
+    for (auto f : m.faces())
+      if (kind[f] == kGrooveWall)
+        for (auto v : m.vertices(f)) reach = std::max(reach, m.position(v).x());
+    EXPECT_NEAR(reach, stub ? 9.0 : 7.5, 0.06);
   }
 }
 
