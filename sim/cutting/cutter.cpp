@@ -2806,9 +2806,7 @@ struct CutEngine::Impl {
       if (dbg())
         std::cerr << "advance: track " << tr.id << " ends at an earlier cut's lip (" << walkEndName(w.end) << ")\n";
       ++stats.lipStops;
-      tr.hasPending = false;
-      end(tr);
-      h.used = false;
+      endForFreshTrack(tr, h);
       if (w.end == WalkEnd::AtRim) h.restart = Hit::PastSlit{from - h.point, n};
       return;
     }
@@ -2877,21 +2875,25 @@ struct CutEngine::Impl {
       if (mergesAtStart(tr, w, h)) {
         if (dbg()) std::cerr << "advance: track " << tr.id << " runs into an earlier cut at its start\n";
         ++stats.startsMerged;
-        tr.hasPending = false;
-        end(tr);
-        h.used = false;
+        endForFreshTrack(tr, h);
         return;
       }
       countWalkFailure(w.end);
-      tr.hasPending = false;
       if (!movedSincePrev && w.end == WalkEnd::Blocked) backPastStart(tr, w, h);
-      end(tr);
-      h.used = false;  // a fresh track starts at the hit
+      endForFreshTrack(tr, h);
       return;
     }
     tr.pending = h.point;
     tr.pendingDepth = h.depth;
     tr.hasPending = true;
+  }
+
+  // The track ends where it is (its pending point dropped) and the hit is left to start
+  // a fresh track: at the hit, or where h.restart says.
+  void endForFreshTrack(Track& tr, Hit& h) {
+    tr.hasPending = false;
+    end(tr);
+    h.used = false;
   }
 
   // A groove still within the matching radius of its start whose walk was blocked next to
@@ -2978,8 +2980,8 @@ struct CutEngine::Impl {
       n.normalize();
       auto atLastTip = [&](Edge e) {
         for (int k = 0; k < 2; ++k)
-          for (Vertex x : m.vertices(m.face(e, k)))
-            if (x.isValid() && (x == tr.prevTip || x == tr.prevTipCopy)) return true;
+          for (Vertex x : {tr.prevTip, tr.prevTipCopy})
+            if (x.isValid() && m.localIndex(m.face(e, k), x) >= 0) return true;
         return false;
       };
       Edge closing, start;

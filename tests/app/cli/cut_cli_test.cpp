@@ -118,11 +118,11 @@ TEST(CutCli, ShallowStrokeIsOneClosedPieceAndDeterministic) {
 
 // The bundled circle task traced at level 0: its groove comes round to where it began
 // and closes into a ring there, physics off and on, with no walk failure (it used to
-// stop 1.3 mm short, blocked next to its own start), and its start opens (no pinch). On the organ fold (physics on) the
-// hook's two edges start beside each other and the second runs into the first one's
-// groove 0.2 mm on: one track ended as run into an earlier cut (starts_merged), which
-// used to be the run's one walk failure; the walk failures, if any, are listed by how
-// the walk ended and add up.
+// stop 1.3 mm short, blocked next to its own start), and its start opens (no pinch).
+// On the organ fold (physics on) the hook's two edges start beside each other and the
+// second runs into the first one's groove 0.2 mm on: one track ended as run into an
+// earlier cut (starts_merged), which used to be the run's one walk failure; the walk
+// failures, if any, are listed by how the walk ended and add up.
 TEST(CutCli, CircleTaskGrooveClosesOnItsStartAndFailuresAreListedByEnd) {
   const fs::path res = ld::test::resourcesDir();
   TempDir d;
